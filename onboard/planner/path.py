@@ -1,0 +1,148 @@
+"""The planned path: an immutable sequence of straight and arc segments with a depth profile.
+
+Frame and conventions (see ``onboard/protocol/conventions.py``): NED world frame, x north, y east, metres; yaw in
+radians from north towards east (positive = clockwise seen from above), wrapped to (-pi, pi]. A right turn
+(starboard) has a positive yaw rate, so ``turn = +1`` is a right turn and ``turn = -1`` a left turn.
+
+Depth varies linearly with horizontal arc length from ``start_depth_m`` to ``end_depth_m``; the planner
+guarantees the slope is within the vehicle's climb/dive limit. The path pitch is the flight-path angle:
+diving (depth increasing) is nose down, a negative pitch.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+
+from onboard.protocol.conventions import wrap_pi
+
+
+@dataclass(frozen=True)
+class PathSample:
+    """The reference pose at arc length ``s_m`` along a path."""
+
+    s_m: float
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    curvature_1pm: float  # signed: + = right turn (yaw increasing), 1/m
+    depth_m: float
+    pitch_rad: float  # flight-path angle of the depth profile, + = nose up (climbing)
+
+
+@dataclass(frozen=True)
+class StraightSegment:
+    """A straight line from (x0_m, y0_m) along ``yaw_rad`` for ``length_m``."""
+
+    x0_m: float
+    y0_m: float
+    yaw_rad: float
+    length_m: float
+
+    kind = "S"
+
+    def pose_at(self, s_m: float) -> tuple[float, float, float, float]:
+        """Return (x_m, y_m, yaw_rad, curvature_1pm) at local arc length ``s_m``."""
+        return (
+            self.x0_m + s_m * math.cos(self.yaw_rad),
+            self.y0_m + s_m * math.sin(self.yaw_rad),
+            wrap_pi(self.yaw_rad),
+            0.0,
+        )
+
+
+@dataclass(frozen=True)
+class ArcSegment:
+    """A circular arc around (center_x_m, center_y_m).
+
+    ``turn`` is +1 for a right (clockwise, yaw increasing) turn and -1 for a left turn; the arc starts at
+    heading ``start_yaw_rad`` and sweeps ``sweep_rad`` >= 0 of heading change.
+    """
+
+    center_x_m: float
+    center_y_m: float
+    radius_m: float
+    turn: int
+    start_yaw_rad: float
+    sweep_rad: float
+
+    @property
+    def kind(self) -> str:
+        return "R" if self.turn > 0 else "L"
+
+    @property
+    def length_m(self) -> float:
+        return self.radius_m * self.sweep_rad
+
+    def pose_at(self, s_m: float) -> tuple[float, float, float, float]:
+        """Return (x_m, y_m, yaw_rad, curvature_1pm) at local arc length ``s_m``."""
+        yaw = self.start_yaw_rad + self.turn * s_m / self.radius_m
+        r = self.radius_m
+        return (
+            self.center_x_m + self.turn * r * math.sin(yaw),
+            self.center_y_m - self.turn * r * math.cos(yaw),
+            wrap_pi(yaw),
+            self.turn / r,
+        )
+
+
+Segment = StraightSegment | ArcSegment
+
+
+@dataclass(frozen=True)
+class Path:
+    """An immutable planned path. ``sample(s_m)`` clamps ``s_m`` to [0, length_m]."""
+
+    segments: tuple[Segment, ...]
+    start_depth_m: float = 0.0
+    end_depth_m: float = 0.0
+    virtual_goals: tuple[tuple[float, float], ...] = ()
+    word: str = ""
+    cost: float = 0.0
+    # Start pose, used for a zero-length path (start == goal).
+    start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    _cum_m: tuple[float, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        cum = [0.0]
+        for seg in self.segments:
+            cum.append(cum[-1] + seg.length_m)
+        object.__setattr__(self, "_cum_m", tuple(cum))
+
+    @property
+    def length_m(self) -> float:
+        return self._cum_m[-1]
+
+    @property
+    def depth_slope(self) -> float:
+        """d(depth)/ds of the linear depth profile (dimensionless, + = diving)."""
+        if self.length_m <= 0.0:
+            return 0.0
+        return (self.end_depth_m - self.start_depth_m) / self.length_m
+
+    def sample(self, s_m: float) -> PathSample:
+        """The reference at arc length ``s_m`` (m), clamped to the path."""
+        length = self.length_m
+        s = min(max(s_m, 0.0), length)
+        slope = self.depth_slope
+        depth = self.start_depth_m + slope * s
+        pitch = -math.atan(slope)
+        if not self.segments:
+            x, y, yaw = self.start_pose
+            return PathSample(s, x, y, wrap_pi(yaw), 0.0, depth, pitch)
+        i = bisect.bisect_right(self._cum_m, s) - 1
+        i = min(max(i, 0), len(self.segments) - 1)
+        seg = self.segments[i]
+        x, y, yaw, kappa = seg.pose_at(s - self._cum_m[i])
+        return PathSample(s, x, y, yaw, kappa, depth, pitch)
+
+    def segment_start_s(self, index: int) -> float:
+        """Arc length (m) at which segment ``index`` starts."""
+        return self._cum_m[index]
+
+    @property
+    def end_pose(self) -> tuple[float, float, float]:
+        """(x_m, y_m, yaw_rad) at the end of the path."""
+        p = self.sample(self.length_m)
+        return (p.x_m, p.y_m, p.yaw_rad)
