@@ -64,7 +64,9 @@ def _check_type(where: str, value: Any, annotation: Any) -> Any:
             return tuple(_check_type(f"{where}[{i}]", v, args[0]) for i, v in enumerate(value))
         if len(args) != len(value):
             raise ConfigError(f"{where}: expected {len(args)} values, got {len(value)}")
-        return tuple(_check_type(f"{where}[{i}]", v, a) for i, (v, a) in enumerate(zip(value, args)))
+        return tuple(
+            _check_type(f"{where}[{i}]", v, a) for i, (v, a) in enumerate(zip(value, args, strict=True))
+        )
     if annotation is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"{where}: expected a number, got {value!r}")

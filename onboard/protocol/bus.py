@@ -1,0 +1,208 @@
+"""Open a python-can bus from a program's configuration, with explicit arguments only.
+
+Interfaces, chosen by configuration and nothing else:
+
+- ``remote`` (bench default between processes): a python-can-remote hub on 127.0.0.1, hosted by the bench
+  (``auv-hil run``); channel ``ws://127.0.0.1:PORT/``. No root, no kernel module, nothing leaves the machine.
+- ``virtual``: inside one process (tests); channel is any name.
+- ``socketcan``: a vehicle's ``can0`` (or ``vcan0`` where the kernel has it).
+- ``udp_multicast``: only with ``hop_limit = 0`` and only when the group routes via ``lo``; by default
+  multicast frames would go out on the LAN, so anything else is refused.
+
+The bus classes are instantiated directly (never ``can.Bus(...)``), so python-can's configuration-file and
+environment fallbacks are never consulted.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import logging
+import re
+import socket
+import subprocess
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any, Literal
+from urllib.parse import urlparse
+
+import can
+
+from onboard.protocol.config import ConfigError, require
+
+log = logging.getLogger(__name__)
+
+DEFAULT_HUB_PORT = 54701
+DEFAULT_REMOTE_CHANNEL = f"ws://127.0.0.1:{DEFAULT_HUB_PORT}/"
+DEFAULT_HUB_CHANNEL = "isimi100-bench"
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
+_SOCKETCAN_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,14}$")
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    """The ``[bus]`` table of a program's TOML configuration.
+
+    interface: remote | virtual | socketcan | udp_multicast.
+    channel: remote: hub URL ``ws://host:port/``; virtual: a name; socketcan: ``can0``/``vcan0``;
+        udp_multicast: the multicast group address.
+    hub_channel: the in-hub virtual channel (used by the program that hosts the hub).
+    udp_port, hop_limit: udp_multicast only; hop_limit must be 0.
+    record: path of a ``.blf``/``.asc`` frame log written with python-can's loggers ("" = off).
+    retry_log_interval_s: while waiting for a bus that is not there yet, one log line this often.
+    """
+
+    interface: Literal["remote", "virtual", "socketcan", "udp_multicast"] = "remote"
+    channel: str = DEFAULT_REMOTE_CHANNEL
+    hub_channel: str = DEFAULT_HUB_CHANNEL
+    udp_port: int = 43113
+    hop_limit: int = 0
+    record: str = ""
+    retry_log_interval_s: float = 3.0
+
+    def __post_init__(self) -> None:
+        require(self.retry_log_interval_s > 0.0, "retry_log_interval_s must be > 0")
+        require(bool(self.hub_channel), "hub_channel must not be empty")
+        if self.record:
+            require(
+                self.record.endswith((".blf", ".asc")),
+                f"record must end in .blf or .asc, got {self.record!r}",
+            )
+        if self.interface == "remote":
+            remote_endpoint(self.channel)
+        elif self.interface == "virtual":
+            require(bool(self.channel), "virtual channel must not be empty")
+        elif self.interface == "socketcan":
+            require(
+                bool(_SOCKETCAN_NAME.match(self.channel)),
+                f"malformed socketcan channel {self.channel!r} (expected e.g. can0 or vcan0)",
+            )
+        elif self.interface == "udp_multicast":
+            try:
+                group = ipaddress.ip_address(self.channel)
+            except ValueError:
+                raise ConfigError(f"udp_multicast channel {self.channel!r} is not an IP address") from None
+            require(group.is_multicast, f"udp_multicast channel {self.channel} is not a multicast group")
+            require(
+                self.hop_limit == 0,
+                f"udp_multicast needs hop_limit = 0 (got {self.hop_limit}): "
+                "otherwise frames leave the machine",
+            )
+            require(1 <= self.udp_port <= 65535, f"udp_port {self.udp_port} out of range")
+
+
+def remote_endpoint(channel: str) -> tuple[str, int]:
+    """(host, port) of a ``ws://host:port/`` hub URL; a :class:`ConfigError` if malformed or not loopback."""
+    url = urlparse(channel)
+    try:
+        port = url.port
+    except ValueError:
+        port = None
+    if url.scheme != "ws" or not url.hostname or port is None:
+        raise ConfigError(f"malformed remote channel {channel!r} (expected ws://127.0.0.1:PORT/)")
+    if url.hostname not in LOOPBACK_HOSTS:
+        raise ConfigError(
+            f"remote hub {url.hostname} is not loopback: the bench bus must not leave the machine"
+        )
+    return url.hostname, port
+
+
+def check_multicast_route_via_lo(group: str) -> None:
+    """Refuse a multicast group that does not route via ``lo`` (it would go out on the LAN)."""
+    try:
+        out = subprocess.run(
+            ["ip", "-o", "route", "get", group], capture_output=True, text=True, timeout=5, check=False
+        ).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        out = ""
+    if " dev lo " not in f" {out} ":
+        raise ConfigError(
+            f"multicast group {group} does not route via lo (ip route get: {out.strip() or 'no answer'}); "
+            f"add one, e.g. 'ip route add {group}/32 dev lo', or use interface = \"remote\""
+        )
+
+
+class BusUnavailable(Exception):
+    """The bus could not be opened before the caller gave up."""
+
+
+def _open_once(cfg: BusConfig) -> can.BusABC:
+    if cfg.interface == "virtual":
+        from can.interfaces.virtual import VirtualBus
+
+        return VirtualBus(channel=cfg.channel, receive_own_messages=False)
+    if cfg.interface == "remote":
+        from can_remote import RemoteBus
+
+        bus: Any = RemoteBus(cfg.channel)
+        # python-can-remote leaves Nagle on for the client socket: small frames would wait for ACKs.
+        bus.socket.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        remote: can.BusABC = bus
+        return remote
+    if cfg.interface == "socketcan":
+        from can.interfaces.socketcan import SocketcanBus
+
+        return SocketcanBus(channel=cfg.channel)
+    check_multicast_route_via_lo(cfg.channel)
+    from can.interfaces.udp_multicast import UdpMulticastBus
+
+    return UdpMulticastBus(channel=cfg.channel, port=cfg.udp_port, hop_limit=cfg.hop_limit)
+
+
+def open_bus(
+    cfg: BusConfig, stop: threading.Event | None = None, timeout_s: float | None = None
+) -> can.BusABC:
+    """Open the configured bus, waiting for it if it is not there yet.
+
+    Retries every 0.2 s, logging one line every ``cfg.retry_log_interval_s``, until the bus opens, ``stop``
+    is set or ``timeout_s`` passes (then :class:`BusUnavailable`). A configuration error (e.g. a multicast
+    group not routed via ``lo``) raises :class:`ConfigError` at once.
+    """
+    t0 = time.monotonic()
+    next_log = t0
+    while True:
+        try:
+            return _open_once(cfg)
+        except ConfigError:
+            raise
+        except (OSError, can.CanError, ConnectionError, ValueError) as exc:
+            now = time.monotonic()
+            if timeout_s is not None and now - t0 >= timeout_s:
+                raise BusUnavailable(f"{cfg.interface} bus {cfg.channel} not available: {exc}") from None
+            if now >= next_log:
+                log.info("waiting for %s bus %s (%s)", cfg.interface, cfg.channel, exc)
+                next_log = now + cfg.retry_log_interval_s
+        if stop is not None and stop.wait(0.2):
+            raise BusUnavailable("stopped while waiting for the bus")
+        if stop is None:
+            time.sleep(0.2)
+
+
+class BenchHub:
+    """The bench's python-can-remote hub: a websocket server on loopback joined to an in-process virtual bus.
+
+    Remote clients (other processes) and the hosting process (through :meth:`local_bus`, a ``virtual`` bus on
+    the same channel) all hear each other.
+    """
+
+    def __init__(self, channel_url: str, hub_channel: str) -> None:
+        from can_remote import RemoteServer
+
+        host, port = remote_endpoint(channel_url)
+        self.hub_channel = hub_channel
+        # The server opens one virtual bus on hub_channel per connected client.
+        self.server: Any = RemoteServer(host=host, port=port, interface="virtual", channel=hub_channel)
+        self.port: int = self.server.server_port
+        self._thread = threading.Thread(target=self.server.serve_forever, name="can-hub", daemon=True)
+        self._thread.start()
+        log.info("bench CAN hub listening on ws://%s:%d/ (channel %s)", host, self.port, hub_channel)
+
+    def local_bus(self) -> can.BusABC:
+        from can.interfaces.virtual import VirtualBus
+
+        return VirtualBus(channel=self.hub_channel, receive_own_messages=False)
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
+        self._thread.join(timeout=2.0)

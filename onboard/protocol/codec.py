@@ -1,0 +1,243 @@
+"""Pure encode/decode between the typed messages and (arbitration id, 8 data bytes), on cantools.
+
+The DBC file ``isimi100.dbc`` beside this module is the single source of truth for every frame.
+
+- :meth:`Codec.encode` raises :class:`EncodeError` for a non-finite or out-of-range value (cantools strict
+  mode; saturation is the controller's job, the codec never clamps).
+- :meth:`Codec.decode` raises :class:`FrameError` with a ``reason`` for a frame it cannot accept.
+- :class:`FrameReceiver` adds the stateful checks (alive counter per id) and counts every rejection by reason.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from collections import Counter
+from dataclasses import dataclass, field
+from enum import IntEnum
+from pathlib import Path
+from typing import Any, Final
+
+import cantools
+import cantools.database
+
+from onboard.protocol.e2e import CRC_BYTE_INDEX, CounterCheck, TxCounters, frame_crc
+from onboard.protocol.messages import ALL_MESSAGE_TYPES, BusMessage
+
+DBC_PATH: Final = Path(__file__).with_name("isimi100.dbc")
+FRAME_LENGTH: Final = 8
+E2E_SIGNALS: Final = ("e2e_counter", "e2e_crc")
+
+REJECTION_REASONS: Final = (
+    "unknown_id",
+    "wrong_length",
+    "wrong_crc",
+    "repeated_counter",
+    "jumping_counter",
+    "non_finite",
+    "out_of_range",
+)
+
+
+class ProtocolError(Exception):
+    """Base class of the bus-contract errors."""
+
+
+class EncodeError(ProtocolError, ValueError):
+    """A message that cannot be put on the bus (NaN, out of the DBC range, wrong type)."""
+
+
+class FrameError(ProtocolError):
+    """A received frame that is rejected; ``reason`` is one of :data:`REJECTION_REASONS`."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class _Spec:
+    """Pre-computed facts of one message type."""
+
+    cls: type[BusMessage]
+    dbc: Any  # cantools Message
+    frame_id: int
+    fields: tuple[str, ...]  # dataclass fields that are DBC signals (no t_sample_s)
+    converters: tuple[Any, ...]  # per field: the callable that turns a decoded number into the field type
+    ranges: tuple[tuple[float, float], ...]
+
+
+def _converter(annotation: Any) -> Any:
+    if annotation is bool:
+        return bool
+    if annotation is int:
+        return int
+    if isinstance(annotation, type) and issubclass(annotation, IntEnum):
+        return annotation
+    return float
+
+
+class Codec:
+    """Encoder/decoder for the ISiMI100 DBC. Pure: no state except the loaded database."""
+
+    def __init__(self, dbc_path: str | Path = DBC_PATH) -> None:
+        db = cantools.database.load_file(str(dbc_path), strict=True)
+        if not isinstance(db, cantools.database.can.Database):
+            raise ProtocolError(f"{dbc_path} is not a CAN database")
+        self.db = db
+        self._by_cls: dict[type[BusMessage], _Spec] = {}
+        self._by_id: dict[int, _Spec] = {}
+        for cls in ALL_MESSAGE_TYPES:
+            dbc_msg = self.db.get_message_by_name(cls.DBC_NAME)
+            hints = typing.get_type_hints(cls)
+            names = tuple(f.name for f in dataclasses.fields(cls) if f.name != "t_sample_s")
+            signals = {s.name: s for s in dbc_msg.signals}
+            missing = set(names) ^ (set(signals) - set(E2E_SIGNALS))
+            if missing:
+                raise ProtocolError(f"{cls.__name__} and DBC {cls.DBC_NAME} disagree on {sorted(missing)}")
+            spec = _Spec(
+                cls=cls,
+                dbc=dbc_msg,
+                frame_id=dbc_msg.frame_id,
+                fields=names,
+                converters=tuple(_converter(hints[n]) for n in names),
+                # Decoded values carry float error from the scale: allow a thousandth of a step.
+                ranges=tuple(
+                    (
+                        float(signals[n].minimum or 0.0) - 1e-3 * float(signals[n].scale),
+                        float(signals[n].maximum or 0.0) + 1e-3 * float(signals[n].scale),
+                    )
+                    for n in names
+                ),
+            )
+            self._by_cls[cls] = spec
+            self._by_id[spec.frame_id] = spec
+
+    def frame_id(self, cls: type[BusMessage]) -> int:
+        """The CAN arbitration id of a message type."""
+        return self._by_cls[cls].frame_id
+
+    @property
+    def frame_ids(self) -> tuple[int, ...]:
+        return tuple(sorted(self._by_id))
+
+    def encode(self, msg: BusMessage, counter: int) -> tuple[int, bytes]:
+        """Encode ``msg`` with alive counter ``counter`` (0..15); returns (arbitration_id, 8 bytes).
+
+        Raises :class:`EncodeError` for a non-finite or out-of-range field.
+        """
+        spec = self._by_cls.get(type(msg))
+        if spec is None:
+            raise EncodeError(f"not a bus message: {msg!r}")
+        values: dict[str, float | int] = {}
+        for name, (lo, hi) in zip(spec.fields, spec.ranges, strict=True):
+            value = getattr(msg, name)
+            number = float(value)
+            if not math.isfinite(number):
+                raise EncodeError(f"{spec.cls.DBC_NAME}.{name} is not finite ({value!r}); refusing to encode")
+            if not lo <= number <= hi:
+                raise EncodeError(
+                    f"{spec.cls.DBC_NAME}.{name} = {number!r} is outside the DBC range [{lo}, {hi}]; "
+                    "saturate before encoding"
+                )
+            values[name] = int(value) if isinstance(value, bool | int) else number
+        values["e2e_counter"] = counter & 0xF
+        values["e2e_crc"] = 0
+        try:
+            data = bytearray(spec.dbc.encode(values, scaling=True, strict=True))
+        except (cantools.database.EncodeError, ValueError, OverflowError) as exc:
+            raise EncodeError(f"{spec.cls.DBC_NAME}: {exc}") from None
+        data[CRC_BYTE_INDEX] = frame_crc(spec.frame_id, bytes(data))
+        return spec.frame_id, bytes(data)
+
+    def decode(self, frame_id: int, data: bytes, t_rx_s: float) -> BusMessage:
+        """Decode one frame (stateless checks: id, length, CRC, finiteness, DBC range).
+
+        ``t_rx_s`` becomes the message's ``t_sample_s``. Raises :class:`FrameError`.
+        """
+        msg, _counter = self.decode_with_counter(frame_id, data, t_rx_s)
+        return msg
+
+    def decode_with_counter(self, frame_id: int, data: bytes, t_rx_s: float) -> tuple[BusMessage, int]:
+        """Like :meth:`decode`, and also return the frame's alive counter."""
+        spec = self._by_id.get(frame_id)
+        if spec is None:
+            raise FrameError("unknown_id", f"unknown arbitration id 0x{frame_id:03X}")
+        if len(data) != FRAME_LENGTH:
+            raise FrameError(
+                "wrong_length", f"{spec.cls.DBC_NAME}: {len(data)} bytes, expected {FRAME_LENGTH}"
+            )
+        if frame_crc(frame_id, data) != data[CRC_BYTE_INDEX]:
+            raise FrameError("wrong_crc", f"{spec.cls.DBC_NAME}: CRC mismatch")
+        raw = spec.dbc.decode(bytes(data), decode_choices=False, scaling=True)
+        kwargs: dict[str, Any] = {}
+        for name, conv, (lo, hi) in zip(spec.fields, spec.converters, spec.ranges, strict=True):
+            number = float(raw[name])
+            if not math.isfinite(number):
+                raise FrameError("non_finite", f"{spec.cls.DBC_NAME}.{name} is not finite")
+            if not lo <= number <= hi:
+                raise FrameError(
+                    "out_of_range", f"{spec.cls.DBC_NAME}.{name} = {number} outside [{lo}, {hi}]"
+                )
+            try:
+                kwargs[name] = conv(raw[name]) if conv is not float else number
+            except ValueError:
+                raise FrameError(
+                    "out_of_range", f"{spec.cls.DBC_NAME}.{name} = {number} not a valid value"
+                ) from None
+        return spec.cls(**kwargs, t_sample_s=t_rx_s), int(raw["e2e_counter"])
+
+
+@dataclass
+class FrameSender:
+    """Stateful encoder: adds the next alive counter for each id."""
+
+    codec: Codec
+    counters: TxCounters = field(default_factory=TxCounters)
+
+    def encode(self, msg: BusMessage) -> tuple[int, bytes]:
+        frame_id = self.codec.frame_id(type(msg))
+        return self.codec.encode(msg, self.counters.next(frame_id))
+
+
+@dataclass
+class FrameReceiver:
+    """Stateful receiver: decode, check the alive counter per id, count rejections by reason.
+
+    ``accept_ids`` limits which ids this node listens to (others are ignored, not counted as errors);
+    ``max_counter_delta`` is the largest accepted counter step (1: a lost frame costs the next one).
+    """
+
+    codec: Codec
+    accept_ids: frozenset[int] | None = None
+    max_counter_delta: int = 1
+    rejected: Counter[str] = field(default_factory=Counter)
+    accepted: int = 0
+    last_error: str = ""
+    _counters: dict[int, CounterCheck] = field(default_factory=dict)
+
+    def receive(self, frame_id: int, data: bytes, t_rx_s: float) -> BusMessage | None:
+        """Return the decoded message, or None if the frame is ignored or rejected (and counted)."""
+        if self.accept_ids is not None and frame_id not in self.accept_ids:
+            return None
+        try:
+            msg, counter = self.codec.decode_with_counter(frame_id, data, t_rx_s)
+        except FrameError as exc:
+            self.rejected[exc.reason] += 1
+            self.last_error = str(exc)
+            return None
+        check = self._counters.get(frame_id)
+        if check is None:
+            check = self._counters[frame_id] = CounterCheck(self.max_counter_delta)
+        reason = check.check(counter)
+        if reason is not None:
+            self.rejected[reason] += 1
+            self.last_error = f"{type(msg).DBC_NAME}: {reason}"
+            return None
+        self.accepted += 1
+        return msg
+
+    @property
+    def rejected_total(self) -> int:
+        return sum(self.rejected.values())

@@ -1,0 +1,78 @@
+"""End-to-end protection of CAN frames, AUTOSAR E2E style (profile-1-like).
+
+Every frame of the ISiMI100 bus carries a 4-bit alive counter and, in its last byte, a CRC-8 (SAE J1850:
+polynomial 0x1D, initial value 0xFF, final XOR 0xFF) computed over the 16-bit data id (the CAN message id,
+low byte first) followed by payload bytes 0..6. The counter catches lost, repeated and replayed frames; the
+CRC catches corruption and frames that were meant for another id.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+CRC_BYTE_INDEX = 7
+COUNTER_MODULO = 16
+
+
+def _make_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table.append(crc)
+    return tuple(table)
+
+
+_TABLE = _make_table()
+
+
+def crc8_sae_j1850(data: bytes, crc: int = 0xFF) -> int:
+    """CRC-8 SAE J1850 of ``data`` (initial value ``crc``, final XOR 0xFF). check("123456789") = 0x4B."""
+    for b in data:
+        crc = _TABLE[crc ^ b]
+    return crc ^ 0xFF
+
+
+def frame_crc(frame_id: int, payload: bytes) -> int:
+    """The E2E CRC of a frame: over the data id (2 bytes, little-endian) and payload bytes 0..6."""
+    header = bytes((frame_id & 0xFF, (frame_id >> 8) & 0xFF))
+    return crc8_sae_j1850(header + bytes(payload[:CRC_BYTE_INDEX]))
+
+
+@dataclass
+class CounterCheck:
+    """Receiver-side alive-counter state for one message id.
+
+    ``max_delta`` is the largest accepted counter step (1 = no frame may be lost). A repeated counter
+    (step 0) or a jump (step > max_delta) rejects the frame; after a jump the receiver re-synchronises on the
+    new counter, so one lost frame costs one more rejected frame, not a permanent lock-out.
+    """
+
+    max_delta: int = 1
+    last: int | None = None
+
+    def check(self, counter: int) -> str | None:
+        """Return None if the counter is acceptable, else the rejection reason; update the state."""
+        if self.last is None:
+            self.last = counter
+            return None
+        delta = (counter - self.last) % COUNTER_MODULO
+        if delta == 0:
+            return "repeated_counter"
+        self.last = counter
+        if delta > self.max_delta:
+            return "jumping_counter"
+        return None
+
+
+@dataclass
+class TxCounters:
+    """Sender-side alive counters, one per message id, starting at 0 and wrapping at 16."""
+
+    next_by_id: dict[int, int] = field(default_factory=dict)
+
+    def next(self, frame_id: int) -> int:
+        value = self.next_by_id.get(frame_id, 0)
+        self.next_by_id[frame_id] = (value + 1) % COUNTER_MODULO
+        return value

@@ -1,0 +1,196 @@
+"""Typed messages of the ISiMI100 bus: one frozen dataclass per DBC message.
+
+Field names are the DBC signal names (SI units in the name) plus ``t_sample_s``: the time the value was
+sampled or commanded, in the sender's clock. On receipt, ``t_sample_s`` is the time of arrival (the frames
+carry no timestamp, except SYNC whose ``sim_time_s`` is the simulated time). The E2E signals
+(``e2e_counter``, ``e2e_crc``) are not fields: the codec adds and checks them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import ClassVar
+
+
+class ActuatorMode(IntEnum):
+    """Mode field of PROP_CMD."""
+
+    SAFE = 0  # fins neutral, propeller off
+    ARMED = 1  # follow the commands
+    ABORT = 2  # propeller off, fins to surface
+
+
+class MissionStateCode(IntEnum):
+    """node_state of ONBOARD_HEARTBEAT: the onboard mission state."""
+
+    IDLE = 0
+    ARMED = 1
+    RUNNING = 2
+    HOLD = 3
+    ABORT = 4
+    COMPLETE = 5
+
+
+class NodeHealth(IntEnum):
+    """node_state of the actuator and sensor heartbeats."""
+
+    OK = 0
+    FAILSAFE = 1  # actuators: latched failsafe / sensors: DEGRADED
+    FAULT = 2
+
+
+@dataclass(frozen=True)
+class FinCmd:
+    DBC_NAME: ClassVar[str] = "FIN_CMD"
+    rudder_rad: float
+    stern_port_rad: float
+    stern_starboard_rad: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class PropCmd:
+    DBC_NAME: ClassVar[str] = "PROP_CMD"
+    propeller_rps: float
+    mode: ActuatorMode
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class SyncAck:
+    DBC_NAME: ClassVar[str] = "SYNC_ACK"
+    tick: int
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Sync:
+    DBC_NAME: ClassVar[str] = "SYNC"
+    tick: int
+    sim_time_s: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class FinStatus:
+    DBC_NAME: ClassVar[str] = "FIN_STATUS"
+    rudder_rad: float
+    stern_port_rad: float
+    stern_starboard_rad: float
+    fault: bool
+    failsafe: bool
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class PropStatus:
+    DBC_NAME: ClassVar[str] = "PROP_STATUS"
+    propeller_rps: float
+    armed: bool
+    failsafe: bool
+    fault: bool
+    rejected_frames: int
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class AhrsAttitude:
+    DBC_NAME: ClassVar[str] = "AHRS_ATTITUDE"
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class AhrsRates:
+    DBC_NAME: ClassVar[str] = "AHRS_RATES"
+    p_radps: float
+    q_radps: float
+    r_radps: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class DepthMeas:
+    DBC_NAME: ClassVar[str] = "DEPTH"
+    depth_m: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class DvlVelocity:
+    DBC_NAME: ClassVar[str] = "DVL_VELOCITY"
+    u_mps: float
+    v_mps: float
+    w_mps: float
+    valid: bool
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class PositionFix:
+    DBC_NAME: ClassVar[str] = "POSITION_FIX"
+    x_m: float
+    y_m: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class OnboardHeartbeat:
+    DBC_NAME: ClassVar[str] = "ONBOARD_HEARTBEAT"
+    node_state: MissionStateCode
+    uptime_s: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class ActuatorsHeartbeat:
+    DBC_NAME: ClassVar[str] = "ACTUATORS_HEARTBEAT"
+    node_state: NodeHealth
+    uptime_s: float
+    t_sample_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class SensorsHeartbeat:
+    DBC_NAME: ClassVar[str] = "SENSORS_HEARTBEAT"
+    node_state: NodeHealth
+    uptime_s: float
+    t_sample_s: float = 0.0
+
+
+BusMessage = (
+    FinCmd
+    | PropCmd
+    | SyncAck
+    | Sync
+    | FinStatus
+    | PropStatus
+    | AhrsAttitude
+    | AhrsRates
+    | DepthMeas
+    | DvlVelocity
+    | PositionFix
+    | OnboardHeartbeat
+    | ActuatorsHeartbeat
+    | SensorsHeartbeat
+)
+
+ALL_MESSAGE_TYPES: tuple[type[BusMessage], ...] = (
+    FinCmd,
+    PropCmd,
+    SyncAck,
+    Sync,
+    FinStatus,
+    PropStatus,
+    AhrsAttitude,
+    AhrsRates,
+    DepthMeas,
+    DvlVelocity,
+    PositionFix,
+    OnboardHeartbeat,
+    ActuatorsHeartbeat,
+    SensorsHeartbeat,
+)

@@ -1,0 +1,86 @@
+"""The thin CAN adapter: typed messages in and out of a python-can bus, with E2E checks and recording."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import can
+
+from onboard.protocol.codec import Codec, EncodeError, FrameReceiver, FrameSender
+from onboard.protocol.messages import BusMessage
+
+log = logging.getLogger(__name__)
+
+
+class BusPort:
+    """Send and receive :mod:`onboard.protocol.messages` over a python-can bus.
+
+    ``clock`` gives the receive time stamped into ``t_sample_s`` (the monotonic clock in real time, the
+    simulated time in lock-step). ``listen_ids`` limits the ids this node decodes. ``record`` writes every
+    frame sent and received to a ``.blf``/``.asc`` log with python-can's loggers.
+    """
+
+    def __init__(
+        self,
+        bus: can.BusABC,
+        clock: Callable[[], float],
+        listen_ids: Iterable[int] | None = None,
+        codec: Codec | None = None,
+        record: str | Path | None = None,
+    ) -> None:
+        self.bus = bus
+        self.codec = codec or Codec()
+        self.clock = clock
+        self.sender = FrameSender(self.codec)
+        self.receiver = FrameReceiver(self.codec, frozenset(listen_ids) if listen_ids is not None else None)
+        self.recorder: can.Listener | None = can.Logger(str(record)) if record else None
+        self.sent = 0
+
+    def send(self, msg: BusMessage) -> None:
+        """Encode (E2E counter + CRC) and send one message. Raises EncodeError for NaN / out of range."""
+        frame_id, data = self.sender.encode(msg)
+        frame = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
+        self.bus.send(frame)
+        self.sent += 1
+        if self.recorder is not None:
+            self.recorder.on_message_received(frame)
+
+    def send_all(self, msgs: Iterable[BusMessage]) -> None:
+        for msg in msgs:
+            self.send(msg)
+
+    def recv(self, timeout_s: float | None) -> BusMessage | None:
+        """Wait up to ``timeout_s`` for one frame; its message, or None (timeout, ignored or rejected)."""
+        frame = self.bus.recv(timeout_s)
+        if frame is None:
+            return None
+        return self._accept(frame)
+
+    def drain(self) -> list[BusMessage]:
+        """Every message already waiting, without blocking."""
+        out: list[BusMessage] = []
+        while True:
+            frame = self.bus.recv(0.0)
+            if frame is None:
+                return out
+            msg = self._accept(frame)
+            if msg is not None:
+                out.append(msg)
+
+    def _accept(self, frame: can.Message) -> BusMessage | None:
+        if self.recorder is not None:
+            self.recorder.on_message_received(frame)
+        if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
+            return None
+        return self.receiver.receive(frame.arbitration_id, bytes(frame.data), self.clock())
+
+    def close(self) -> None:
+        if self.recorder is not None:
+            self.recorder.stop()
+            self.recorder = None
+        self.bus.shutdown()
+
+
+__all__ = ["BusPort", "EncodeError"]

@@ -1,0 +1,192 @@
+"""The bus contract: every message round-trips, every frame is classic CAN, every rejection is counted."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from enum import IntEnum
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from onboard.protocol.codec import (
+    FRAME_LENGTH,
+    REJECTION_REASONS,
+    Codec,
+    EncodeError,
+    FrameReceiver,
+    FrameSender,
+)
+from onboard.protocol.e2e import crc8_sae_j1850, frame_crc
+from onboard.protocol.messages import (
+    ALL_MESSAGE_TYPES,
+    ActuatorMode,
+    FinCmd,
+    PositionFix,
+    PropCmd,
+    Sync,
+)
+
+CODEC = Codec()
+
+
+def _strategy_for(cls: type) -> st.SearchStrategy:
+    """Values over each signal's DBC range, for the dataclass of one message."""
+    dbc = CODEC.db.get_message_by_name(cls.DBC_NAME)
+    signals = {s.name: s for s in dbc.signals}
+    hints = typing.get_type_hints(cls)
+    fields = {}
+    for f in dataclasses.fields(cls):
+        if f.name == "t_sample_s":
+            continue
+        sig = signals[f.name]
+        ann = hints[f.name]
+        if ann is bool:
+            fields[f.name] = st.booleans()
+        elif isinstance(ann, type) and issubclass(ann, IntEnum):
+            fields[f.name] = st.sampled_from(list(ann))
+        elif ann is int:
+            fields[f.name] = st.integers(int(sig.minimum), int(sig.maximum))
+        else:
+            fields[f.name] = st.floats(float(sig.minimum), float(sig.maximum), allow_nan=False)
+    return st.builds(cls, **fields)
+
+
+def test_dbc_names_and_ids_follow_the_contract() -> None:
+    # GIVEN the DBC WHEN listing its messages THEN commands end in _CMD and have the lowest ids,
+    # every frame is classic CAN (<= 8 bytes) and carries an E2E counter and CRC.
+    msgs = CODEC.db.messages
+    cmd_ids = [m.frame_id for m in msgs if m.name.endswith("_CMD")]
+    other_ids = [m.frame_id for m in msgs if not m.name.endswith("_CMD")]
+    assert cmd_ids and max(cmd_ids) < min(other_ids)
+    for m in msgs:
+        assert m.length <= 8 and not m.is_extended_frame and not m.is_fd
+        names = [s.name for s in m.signals]
+        assert any("counter" in n for n in names) and any("crc" in n for n in names)
+
+
+@pytest.mark.parametrize("cls", ALL_MESSAGE_TYPES, ids=lambda c: c.DBC_NAME)
+def test_round_trip_every_message(cls: type) -> None:
+    @settings(max_examples=60, deadline=None)
+    @given(msg=_strategy_for(cls), counter=st.integers(0, 15))
+    def check(msg: typing.Any, counter: int) -> None:
+        frame_id, data = CODEC.encode(msg, counter)
+        assert len(data) == FRAME_LENGTH
+        back, got_counter = CODEC.decode_with_counter(frame_id, data, 1.5)
+        assert got_counter == counter and back.t_sample_s == 1.5
+        dbc = CODEC.db.get_message_by_name(cls.DBC_NAME)
+        for sig in dbc.signals:
+            if sig.name.startswith("e2e_"):
+                continue
+            want, got = getattr(msg, sig.name), getattr(back, sig.name)
+            assert type(got) is type(want) or isinstance(want, float)
+            assert math.isclose(float(got), float(want), abs_tol=sig.scale / 2 + 1e-12)
+
+    check()
+
+
+@pytest.mark.parametrize(
+    "msg",
+    [
+        FinCmd(float("nan"), 0.0, 0.0),
+        FinCmd(0.0, float("inf"), 0.0),
+        FinCmd(0.6, 0.0, 0.0),
+        FinCmd(0.0, 0.0, -0.6),
+        PropCmd(41.0, ActuatorMode.ARMED),
+        PositionFix(9000.0, 0.0),
+        Sync(-1, 0.0),
+    ],
+)
+def test_encoding_nan_or_out_of_range_raises_a_clear_error(msg: typing.Any) -> None:
+    with pytest.raises(EncodeError, match=r"not finite|outside the DBC range"):
+        CODEC.encode(msg, 0)
+
+
+def test_crc_is_the_sae_j1850_check_value_and_covers_the_id() -> None:
+    assert crc8_sae_j1850(b"123456789") == 0x4B
+    payload = bytes(range(7)) + b"\x00"
+    assert frame_crc(0x10, payload) != frame_crc(0x11, payload)
+
+
+def _frames(n: int, msg: typing.Any = None) -> list[tuple[int, bytes]]:
+    sender = FrameSender(CODEC)
+    msg = msg or FinCmd(0.1, 0.0, -0.1)
+    return [sender.encode(msg) for _ in range(n)]
+
+
+def test_receiver_accepts_a_clean_stream_across_the_counter_wrap() -> None:
+    rx = FrameReceiver(CODEC)
+    for fid, data in _frames(40):
+        assert rx.receive(fid, data, 0.0) is not None
+    assert rx.accepted == 40 and rx.rejected_total == 0
+
+
+def _reject(reason: str) -> FrameReceiver:
+    rx = FrameReceiver(CODEC)
+    frames = _frames(4)
+    fid, data = frames[0]
+    assert rx.receive(fid, data, 0.0) is not None
+    if reason == "unknown_id":
+        rx.receive(0x7FF, data, 0.0)
+    elif reason == "wrong_length":
+        rx.receive(fid, data[:7], 0.0)
+    elif reason == "wrong_crc":
+        bad = bytearray(frames[1][1])
+        bad[0] ^= 0x01
+        rx.receive(fid, bytes(bad), 0.0)
+    elif reason == "repeated_counter":
+        rx.receive(fid, data, 0.0)
+    elif reason == "jumping_counter":
+        rx.receive(*frames[3], 0.0)
+    elif reason == "out_of_range":
+        # A raw int16 of 0x7FFF is 3.2767 rad: inside the bit field, outside the DBC range; valid CRC.
+        bad = bytearray(frames[1][1])
+        bad[0:2] = (0x7FFF).to_bytes(2, "little", signed=True)
+        bad[7] = frame_crc(fid, bad)
+        rx.receive(fid, bytes(bad), 0.0)
+    elif reason == "non_finite":
+        rx.codec = _NanCodec()
+        rx.receive(*frames[1], 0.0)
+    return rx
+
+
+class _NanCodec(Codec):
+    """A codec whose DBC decode yields NaN, to exercise the non-finite check (ints cannot be NaN)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        spec = self._by_id[0x10]
+        real = spec.dbc
+
+        class _Dbc:
+            def decode(self, data: bytes, **kw: typing.Any) -> dict[str, typing.Any]:
+                out = dict(real.decode(data, **kw))
+                out["rudder_rad"] = float("nan")
+                return out
+
+        object.__setattr__(spec, "dbc", _Dbc())
+
+
+@pytest.mark.parametrize("reason", REJECTION_REASONS)
+def test_each_rejection_reason_is_counted_separately(reason: str) -> None:
+    rx = _reject(reason)
+    assert dict(rx.rejected) == {reason: 1}
+    assert rx.accepted == 1
+
+
+def test_after_a_jump_the_receiver_resynchronises() -> None:
+    rx = FrameReceiver(CODEC)
+    frames = _frames(6)
+    rx.receive(*frames[0], 0.0)
+    assert rx.receive(*frames[2], 0.0) is None  # frame 1 lost: jump rejected
+    assert rx.receive(*frames[3], 0.0) is not None  # back in step
+    assert rx.rejected["jumping_counter"] == 1
+
+
+def test_listen_ids_ignore_other_frames_without_counting() -> None:
+    fin_id = CODEC.frame_id(FinCmd)
+    rx = FrameReceiver(CODEC, accept_ids=frozenset({fin_id + 1}))
+    assert rx.receive(*_frames(1)[0], 0.0) is None
+    assert rx.rejected_total == 0 and rx.accepted == 0
