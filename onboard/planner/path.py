@@ -2,7 +2,8 @@
 
 Frame and conventions (see ``onboard/protocol/conventions.py``): NED world frame, x north, y east,
 metres; yaw in radians from north towards east (positive = clockwise seen from above), wrapped to (-pi, pi].
-A right turn (starboard) has a positive yaw rate, so ``turn = +1`` is a right turn and ``turn = -1`` a left turn.
+A right turn (starboard) has a positive yaw rate, so ``turn = +1`` is a right turn and ``turn = -1`` a left
+turn.
 
 Depth varies linearly with horizontal arc length from ``start_depth_m`` to ``end_depth_m``; the planner
 guarantees the slope is within the vehicle's climb/dive limit. The path pitch is the flight-path angle:

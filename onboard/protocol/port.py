@@ -80,7 +80,10 @@ class BusPort:
         if self.recorder is not None:
             self.recorder.stop()
             self.recorder = None
-        self.bus.shutdown()
+        try:
+            self.bus.shutdown()
+        except OSError as exc:  # the other end already went away (e.g. the bench hub stopped)
+            log.debug("bus shutdown: %s", exc)
 
 
 __all__ = ["BusPort", "EncodeError"]

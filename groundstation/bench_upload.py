@@ -1,0 +1,117 @@
+"""Benchmark: mission upload time of 10 and 100 goals over loopback, clean and through a 20 % loss relay.
+
+The vehicle side runs as a real process (``python -m onboard.mavlink.standalone``: the endpoint with a fake
+loop); this module only talks MAVLink to it. ``run()`` returns seconds per upload (median) and counts;
+it measures and prints, it asserts nothing. ``python -m groundstation.bench_upload [--quick] [--json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from groundstation.mavclient import MavClient
+from groundstation.mission_files import goal_item
+from groundstation.relay import LossyRelay
+
+
+def start_vehicle(state_dir: Path, timeout_s: float = 10.0) -> tuple[subprocess.Popen[str], int]:
+    """Start the standalone vehicle endpoint; returns the process and its UDP port."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "onboard.mavlink.standalone", "--endpoint", "udpin:127.0.0.1:0", "--state-dir",
+         str(state_dir)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    t_end = time.monotonic() + timeout_s
+    line = proc.stdout.readline()
+    if not line or time.monotonic() > t_end:
+        stop_vehicle(proc)
+        raise RuntimeError("the standalone vehicle did not start")
+    return proc, int(json.loads(line)["ports"][0])
+
+
+def stop_vehicle(proc: subprocess.Popen[str]) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=5.0)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=5.0)
+
+
+def _goals(n: int, k: int) -> list:  # type: ignore[type-arg]
+    return [goal_item(10.0 * math.cos(i + k), 10.0 * math.sin(i + k), 1.0 + (i % 5), None) for i in range(n)]
+
+
+def _measure(port: int, n: int, reps: int, loss: float) -> tuple[list[float], int, int]:
+    relay = LossyRelay(("127.0.0.1", port), loss=loss, reorder=0.1, seed=n).start() if loss > 0 else None
+    target = relay.port if relay is not None else port
+    times, ok, resends = [], 0, 0
+    try:
+        with MavClient(f"udpout:127.0.0.1:{target}", system_id=250) as c:
+            for _ in range(5):
+                c.heartbeat()
+                try:
+                    c.wait_heartbeat(1.0)
+                    break
+                except Exception:
+                    continue
+            for k in range(reps):
+                r = c.upload(_goals(n, k), timeout_s=8.0)
+                resends += r.resends
+                if r.ok:
+                    ok += 1
+                    times.append(r.elapsed_s)
+    finally:
+        if relay is not None:
+            relay.stop()
+    return times, ok, resends
+
+
+def run(quick: bool = False) -> dict[str, float]:
+    """Upload timings (median s) and success counts, clean and at 20 % loss each way with reordering."""
+    reps = 3 if quick else 10
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as d:
+        proc, port = start_vehicle(Path(d))
+        try:
+            for loss in (0.0, 0.2):
+                tag = "clean" if loss == 0 else "loss20"
+                for n in (10, 100):
+                    times, ok, resends = _measure(port, n, reps, loss)
+                    out[f"upload_{n}_{tag}_median_s"] = statistics.median(times) if times else math.nan
+                    out[f"upload_{n}_{tag}_max_s"] = max(times) if times else math.nan
+                    out[f"upload_{n}_{tag}_ok"] = float(ok)
+                    out[f"upload_{n}_{tag}_tries"] = float(reps)
+                    out[f"upload_{n}_{tag}_gcs_resends"] = float(resends)
+        finally:
+            stop_vehicle(proc)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m groundstation.bench_upload")
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    res = run(args.quick)
+    if args.json:
+        sys.stdout.write(json.dumps(res) + "\n")
+    else:
+        for k, v in res.items():
+            sys.stdout.write(f"{k:36s} {v:.4f}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,456 @@
+"""A small MAVLink 2 client for the ground station: UDP/TCP, tlog recording, mission/command/param helpers.
+
+It talks to the vehicle only over the wire (no onboard imports). Every packet sent and received is appended
+to the session's ``.tlog`` (8-byte big-endian microseconds since the epoch, then the raw packet), the format
+MAVProxy, QGroundControl and pymavlink read.
+
+URLs: ``udpin:HOST:PORT`` listens (the vehicle sends there; default ``udpin:0.0.0.0:14550``) and answers the
+address the vehicle's packets came from; ``udpout:HOST:PORT`` sends to a vehicle listening there;
+``tcp:HOST:PORT`` connects to a vehicle's ``tcpin`` endpoint.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import socket
+import struct
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from pymavlink.dialects.v20 import common as mavlink
+
+Msg = mavlink.MAVLink_message
+MISSION_RESULT_NAMES = {
+    v: k
+    for k, v in vars(mavlink).items()
+    if k.startswith("MAV_MISSION_") and isinstance(v, int) and "TYPE" not in k
+}
+MAV_RESULT_NAMES = {
+    v: k for k, v in vars(mavlink).items() if k.startswith("MAV_RESULT_") and isinstance(v, int)
+}
+STATE_NAMES = ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")
+
+
+class LinkError(RuntimeError):
+    """No answer from the vehicle, or an unusable connection URL."""
+
+
+@dataclass(frozen=True)
+class Item:
+    """One mission item in MISSION_ITEM_INT encoding (local x/y = metres * 1e4; global = degrees * 1e7)."""
+
+    frame: int
+    command: int
+    param1: float
+    param2: float
+    param3: float
+    param4: float
+    x: int
+    y: int
+    z: float
+    autocontinue: int = 1
+
+
+@dataclass(frozen=True)
+class TransferResult:
+    """Outcome of a mission transfer: MAV_MISSION result code, its name, time taken, resends."""
+
+    ok: bool
+    result: int
+    result_name: str
+    elapsed_s: float
+    resends: int
+
+
+def state_from_heartbeat(msg: Msg) -> str:
+    """Mission state from the vehicle's HEARTBEAT (custom_mode byte 0 carries its index)."""
+    idx = int(msg.custom_mode) & 0xFF
+    return STATE_NAMES[idx] if idx < len(STATE_NAMES) else f"?{idx}"
+
+
+class MavClient:
+    """A ground-station MAVLink 2 connection (system 255, component 190 by default)."""
+
+    def __init__(
+        self,
+        url: str = "udpin:0.0.0.0:14550",
+        *,
+        system_id: int = 255,
+        component_id: int = 190,
+        tlog: Path | None = None,
+        signing_key: bytes | None = None,
+        heartbeat_period_s: float = 1.0,
+    ) -> None:
+        parts = url.split(":")
+        if len(parts) != 3 or parts[0] not in ("udpin", "udpout", "tcp"):
+            raise LinkError(
+                f"connection URL {url!r}: expected udpin:HOST:PORT, udpout:HOST:PORT or tcp:HOST:PORT"
+            )
+        kind, host, port_s = parts
+        try:
+            port = int(port_s)
+        except ValueError:
+            raise LinkError(f"connection URL {url!r}: bad port") from None
+        self.kind = kind
+        self._peer: tuple[str, int] | None = None
+        if kind == "tcp":
+            self.sock = socket.create_connection((host, port), timeout=5.0)
+            self._stream = mavlink.MAVLink(None)
+            self._stream.robust_parsing = True
+        else:
+            self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            if kind == "udpin":
+                self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                self.sock.bind((host, port))
+            else:
+                self.sock.bind(("0.0.0.0", 0))
+                self._peer = (host, port)
+        self.sock.setblocking(True)
+        self.mav = mavlink.MAVLink(self, system_id, component_id)
+        if signing_key is not None:
+            self.mav.signing.secret_key = signing_key
+            self.mav.signing.sign_outgoing = True
+            self.mav.signing.timestamp = int((time.time() - 1420070400.0) * 100_000)
+        self.system_id = system_id
+        self.component_id = component_id
+        self.target: tuple[int, int] = (1, 1)
+        self._queue: collections.deque[Msg] = collections.deque()
+        self._tlog = tlog.open("ab") if tlog is not None else None
+        self._hb_period_s = heartbeat_period_s
+        self._hb_next = 0.0
+        self._confirmation = 0
+        self.rx_errors = 0
+        self.on_message: Callable[[Msg], None] | None = None
+
+    # ---- raw I/O -------------------------------------------------------------------------------
+    def write(self, buf: bytes) -> None:
+        """pymavlink's sink: send one packet (and record it)."""
+        self._record(bytes(buf))
+        try:
+            if self.kind == "tcp":
+                self.sock.sendall(buf)
+            elif self._peer is not None:
+                self.sock.sendto(buf, self._peer)
+        except OSError:
+            pass
+
+    def _record(self, buf: bytes) -> None:
+        if self._tlog is not None:
+            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + buf)
+
+    def close(self) -> None:
+        self.sock.close()
+        if self._tlog is not None:
+            self._tlog.close()
+            self._tlog = None
+
+    def __enter__(self) -> MavClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def send(self, msg: Msg) -> None:
+        self.mav.send(msg)
+
+    def heartbeat(self) -> None:
+        self.send(
+            mavlink.MAVLink_heartbeat_message(
+                mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
+            )
+        )
+
+    def _decode(self, data: bytes) -> list[Msg]:
+        if self.kind == "tcp":
+            msgs = self._stream.parse_buffer(data) or []
+        else:
+            parser = mavlink.MAVLink(None)  # fresh per datagram: a cut datagram cannot eat the next
+            parser.robust_parsing = True
+            try:
+                msgs = parser.parse_buffer(data) or []
+            except Exception:
+                msgs = []
+                self.rx_errors += 1
+        out = []
+        for m in msgs:
+            if m.get_type() == "BAD_DATA":
+                self.rx_errors += 1
+                continue
+            self._record(bytes(m.get_msgbuf()))
+            out.append(m)
+        return out
+
+    def recv(self, timeout_s: float) -> Msg | None:
+        """The next message, waiting at most ``timeout_s``; sends our heartbeat when due."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            now = time.monotonic()
+            if now >= self._hb_next and (self._peer is not None or self.kind == "tcp"):
+                self._hb_next = now + self._hb_period_s
+                self.heartbeat()
+            if self._queue:
+                msg = self._queue.popleft()
+                if self.on_message is not None:
+                    self.on_message(msg)
+                return msg
+            remaining = deadline - now
+            if remaining <= 0:
+                return None
+            self.sock.settimeout(min(remaining, max(0.01, self._hb_next - now)))
+            try:
+                if self.kind == "tcp":
+                    data = self.sock.recv(65536)
+                    addr = None
+                else:
+                    data, addr = self.sock.recvfrom(65535)
+            except (TimeoutError, BlockingIOError):
+                continue
+            except OSError:
+                continue
+            msgs = self._decode(data)
+            if msgs and addr is not None and self.kind == "udpin" and self._peer is None:
+                self._peer = addr
+            self._queue.extend(msgs)
+
+    def wait_heartbeat(self, timeout_s: float = 5.0) -> Msg:
+        """Wait for the vehicle's HEARTBEAT; remember its ids as the target."""
+        deadline = time.monotonic() + timeout_s
+        while (left := deadline - time.monotonic()) > 0:
+            m = self.recv(left)
+            if m is not None and m.get_type() == "HEARTBEAT" and m.type != mavlink.MAV_TYPE_GCS:
+                self.target = (m.get_srcSystem(), m.get_srcComponent())
+                return m
+        raise LinkError(f"no vehicle heartbeat within {timeout_s:.1f} s")
+
+    def _from_target(self, m: Msg) -> bool:
+        return (m.get_srcSystem(), m.get_srcComponent()) == self.target
+
+    def _to_us(self, m: Msg) -> bool:
+        ts = getattr(m, "target_system", 0)
+        return ts in (0, self.system_id)
+
+    # ---- mission protocol ----------------------------------------------------------------------
+    def upload(
+        self,
+        items: list[Item],
+        mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION,
+        *,
+        progress: Callable[[int, int], None] | None = None,
+        resend_s: float = 0.4,
+        timeout_s: float = 8.0,
+    ) -> TransferResult:
+        """Upload a plan; returns the vehicle's MISSION_ACK result (or a timeout, result -1).
+
+        The vehicle re-requests a missing item every 250 ms; to recover faster from a lost packet the
+        client also resends its last message when no answer came within a few measured round trips
+        (at least 30 ms, at most ``resend_s``): a lost item is then delivered, and a lost request is
+        answered by the vehicle with a fresh request for the item it needs.
+        """
+        t0 = time.monotonic()
+        n = len(items)
+        ts, tc = self.target
+        count_msg = mavlink.MAVLink_mission_count_message(ts, tc, n, mission_type)
+        self.send(count_msg)
+        resends = 0
+        got_request = False
+        last_sent: Msg = count_msg
+        sent_last_item = n == 0
+        last_tx = last_progress = time.monotonic()
+        done = 0
+        rtt_s = resend_s / 4.0
+        wait_s = resend_s
+        while True:
+            now = time.monotonic()
+            if now - last_progress > timeout_s:
+                return TransferResult(False, -1, "TIMEOUT", now - t0, resends)
+            m = self.recv(max(0.0, min(wait_s - (now - last_tx), 0.1)))
+            now = time.monotonic()
+            if m is None:
+                if now - last_tx >= wait_s:
+                    wait_s = min(resend_s, wait_s * 2.0)  # back off while nothing comes back
+                    self.send(last_sent if got_request else count_msg)
+                    resends += 1
+                    last_tx = now
+                continue
+            if not (self._from_target(m) and self._to_us(m)):
+                continue
+            kind = m.get_type()
+            if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST") and m.mission_type == mission_type:
+                if not 0 <= m.seq < n:
+                    continue
+                got_request = True
+                it = items[m.seq]
+                last_sent = mavlink.MAVLink_mission_item_int_message(
+                    ts, tc, m.seq, it.frame, it.command, 0, it.autocontinue,
+                    it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mission_type,
+                )  # fmt: skip
+                if m.seq == done and done > 0:  # answer to our last item: a round-trip sample
+                    rtt_s = 0.8 * rtt_s + 0.2 * (now - last_tx)
+                self.send(last_sent)
+                last_tx = now
+                wait_s = min(resend_s, max(0.03, 4.0 * rtt_s))
+                if m.seq >= done:
+                    done = m.seq + 1
+                    last_progress = now
+                    if progress is not None:
+                        progress(m.seq, n)
+                if m.seq == n - 1:
+                    sent_last_item = True
+            elif kind == "MISSION_ACK" and m.mission_type == mission_type:
+                if m.type == mavlink.MAV_MISSION_ACCEPTED and not sent_last_item:
+                    continue  # a stale ACK of an earlier transfer
+                if progress is not None and m.type == mavlink.MAV_MISSION_ACCEPTED:
+                    progress(n, n)
+                name = MISSION_RESULT_NAMES.get(m.type, str(m.type))
+                return TransferResult(m.type == 0, int(m.type), name, time.monotonic() - t0, resends)
+
+    def download(
+        self,
+        mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION,
+        *,
+        resend_s: float = 0.5,
+        retries: int = 10,
+    ) -> list[Item]:
+        """Download a plan (MISSION_REQUEST_LIST, then MISSION_REQUEST_INT per item, then MISSION_ACK)."""
+        ts, tc = self.target
+        req = mavlink.MAVLink_mission_request_list_message(ts, tc, mission_type)
+        count_msg = self._request_reply(
+            req, "MISSION_COUNT", lambda m: m.mission_type == mission_type, resend_s, retries
+        )
+        if count_msg.get_type() == "MISSION_ACK":
+            raise LinkError(f"download refused: {MISSION_RESULT_NAMES.get(count_msg.type, count_msg.type)}")
+        items: list[Item] = []
+        for seq in range(count_msg.count):
+            r = mavlink.MAVLink_mission_request_int_message(ts, tc, seq, mission_type)
+            m = self._request_reply(
+                r,
+                "MISSION_ITEM_INT",
+                lambda m, s=seq: m.seq == s and m.mission_type == mission_type,
+                resend_s,
+                retries,
+            )
+            if m.get_type() == "MISSION_ACK":
+                raise LinkError(f"download failed: {MISSION_RESULT_NAMES.get(m.type, m.type)}")
+            items.append(
+                Item(
+                    m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z, m.autocontinue
+                )
+            )
+        self.send(mavlink.MAVLink_mission_ack_message(ts, tc, mavlink.MAV_MISSION_ACCEPTED, mission_type))
+        return items
+
+    def _request_reply(
+        self, req: Msg, kind: str, match: Callable[[Msg], bool], resend_s: float, retries: int
+    ) -> Msg:
+        """Send ``req`` until a ``kind`` message matching ``match`` (or a MISSION_ACK error) arrives."""
+        for _ in range(retries):
+            self.send(req)
+            deadline = time.monotonic() + resend_s
+            while (left := deadline - time.monotonic()) > 0:
+                m = self.recv(left)
+                if m is None or not (self._from_target(m) and self._to_us(m)):
+                    continue
+                if m.get_type() == kind and match(m):
+                    return m
+                if m.get_type() == "MISSION_ACK" and kind != "MISSION_ACK" and m.type != 0:
+                    return m
+        raise LinkError(f"no {kind} from the vehicle after {retries} tries")
+
+    def clear(
+        self, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION, *, resend_s: float = 0.5
+    ) -> TransferResult:
+        """MISSION_CLEAR_ALL with retries; returns the vehicle's ACK."""
+        t0 = time.monotonic()
+        ts, tc = self.target
+        req = mavlink.MAVLink_mission_clear_all_message(ts, tc, mission_type)
+        m = self._request_reply(req, "MISSION_ACK", lambda m: m.mission_type == mission_type, resend_s, 10)
+        name = MISSION_RESULT_NAMES.get(m.type, str(m.type))
+        return TransferResult(m.type == 0, int(m.type), name, time.monotonic() - t0, 0)
+
+    # ---- commands and parameters ---------------------------------------------------------------
+    def command(self, command: int, *params: float, resend_s: float = 1.0, retries: int = 3) -> int:
+        """COMMAND_LONG with retries (confirmation counts up); returns the MAV_RESULT."""
+        p = [*params, *([0.0] * (7 - len(params)))]
+        ts, tc = self.target
+        for attempt in range(retries):
+            self.send(mavlink.MAVLink_command_long_message(ts, tc, command, attempt, *p))
+            deadline = time.monotonic() + resend_s
+            while (left := deadline - time.monotonic()) > 0:
+                m = self.recv(left)
+                if (
+                    m is not None
+                    and m.get_type() == "COMMAND_ACK"
+                    and m.command == command
+                    and self._from_target(m)
+                    and self._to_us(m)
+                ):
+                    return int(m.result)
+        raise LinkError(f"no COMMAND_ACK for command {command} after {retries} tries")
+
+    def param_list(self, *, quiet_s: float = 1.0, timeout_s: float = 10.0) -> dict[str, float]:
+        """All parameters (PARAM_REQUEST_LIST, then PARAM_REQUEST_READ for any missing index)."""
+        ts, tc = self.target
+        self.send(mavlink.MAVLink_param_request_list_message(ts, tc))
+        values: dict[int, tuple[str, float]] = {}
+        total: int | None = None
+        t_end = time.monotonic() + timeout_s
+        last_rx = time.monotonic()
+        while time.monotonic() < t_end:
+            m = self.recv(0.1)
+            if m is not None and m.get_type() == "PARAM_VALUE" and self._from_target(m):
+                total = m.param_count
+                values[m.param_index] = (_pname(m.param_id), float(m.param_value))
+                last_rx = time.monotonic()
+                if len(values) >= total:
+                    break
+            elif time.monotonic() - last_rx > quiet_s:
+                if total is None:
+                    self.send(mavlink.MAVLink_param_request_list_message(ts, tc))
+                else:
+                    for i in range(total):
+                        if i not in values:
+                            self.send(mavlink.MAVLink_param_request_read_message(ts, tc, b"", i))
+                last_rx = time.monotonic()
+        if total is None or len(values) < total:
+            raise LinkError("parameter list incomplete")
+        return dict(values[i] for i in sorted(values))
+
+    def param_get(self, name: str, *, resend_s: float = 0.5, retries: int = 5) -> float:
+        ts, tc = self.target
+        for _ in range(retries):
+            self.send(mavlink.MAVLink_param_request_read_message(ts, tc, name.encode("ascii"), -1))
+            deadline = time.monotonic() + resend_s
+            while (left := deadline - time.monotonic()) > 0:
+                m = self.recv(left)
+                if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
+                    return float(m.param_value)
+        raise LinkError(f"no value for parameter {name}")
+
+    def param_set(
+        self, name: str, value: float, *, resend_s: float = 0.5, retries: int = 5
+    ) -> tuple[bool, float]:
+        """PARAM_SET; returns (accepted, value now in force). A refused set is answered with the old value."""
+        ts, tc = self.target
+        want = struct.unpack("<f", struct.pack("<f", value))[0] if math.isfinite(value) else value
+        for _ in range(retries):
+            self.send(
+                mavlink.MAVLink_param_set_message(
+                    ts, tc, name.encode("ascii"), value, mavlink.MAV_PARAM_TYPE_REAL32
+                )
+            )
+            deadline = time.monotonic() + resend_s
+            while (left := deadline - time.monotonic()) > 0:
+                m = self.recv(left)
+                if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
+                    got = float(m.param_value)
+                    return got == want, got
+        raise LinkError(f"no answer to setting {name}")
+
+
+def _pname(raw: object) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("ascii", "replace")
+    return str(raw).split("\x00", 1)[0]

@@ -1,0 +1,634 @@
+"""``auv-hil run``: the hardware-in-the-loop bench on the CAN bus, in real time or in lock-step.
+
+The bench hosts the CAN hub (python-can-remote on 127.0.0.1) when its bus is ``remote``, and plays three
+nodes: the actuator node (consumes FIN_CMD / PROP_CMD through the E2E checks, moves the fins and the
+propeller with their limits and lag, goes to a latched failsafe when no valid command came for
+``actuator_timeout_periods`` control periods, reports FIN_STATUS / PROP_STATUS), the sensor node (AHRS,
+depth, DVL, position fix at their own rates with seeded noise) and the bench itself (SYNC in lock-step).
+
+Time modes:
+
+- ``realtime``: one control period per period of the monotonic clock; commands are taken as they come.
+- ``lockstep``: per period, publish the sensors, send SYNC(tick, simulated time), wait for the onboard's
+  SYNC_ACK of that tick (collecting its commands), then integrate one period. Simulated time starts only when
+  the onboard's heartbeat reports a running mission (the vehicle starts at rest where the scenario puts it);
+  staleness is counted in ticks; no wall clock is read for the simulation, so runs repeat exactly. A missing
+  echo past ``echo_timeout_s`` (wall clock) ends the run with a clear error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import math
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from hil_sim.model.actuators import (
+    ActuatorCommand,
+    WatchdogState,
+    watchdog_output,
+    watchdog_rearm,
+    watchdog_tick,
+)
+from hil_sim.model.current import CurrentParams
+from hil_sim.model.dynamics import BodyState
+from hil_sim.model.params import VehicleParams, load_params
+from hil_sim.model.sensors import AhrsMeasurement, DepthMeasurement, DvlMeasurement, Measurement, sample
+from hil_sim.model.sensors import PositionFix as FixMeasurement
+from hil_sim.model.sim import SimSetup, SimState, initial_state, make_setup
+from hil_sim.model.sim import step as sim_step
+from onboard.protocol import messages as m
+from onboard.protocol.bus import BenchHub, BusConfig, BusUnavailable, open_bus
+from onboard.protocol.cli import join_negative_values
+from onboard.protocol.codec import Codec
+from onboard.protocol.config import ConfigError, from_table, load_toml, require
+from onboard.protocol.port import BusPort
+
+log = logging.getLogger("hil_sim")
+
+DEFAULT_CONFIG_PATH = Path(__file__).parent / "config" / "bench.toml"
+NUMERIC_OPTIONS = ("--start", "--current", "--seed", "--duration", "--stop-delay")
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """The ``[bench]`` table.
+
+    time_mode: realtime | lockstep. control_rate_hz: the control period (must match the onboard's).
+    sensor_profile: basin | sea. seed: all noise. actuator_timeout_periods: command watchdog.
+    echo_timeout_s: lock-step wall-clock deadline for the onboard's SYNC_ACK. duration_s: simulated seconds
+    after the start (0 = until stopped). stop_on_state: onboard states that end the run (after
+    ``stop_delay_s`` more simulated seconds). truth_log: CSV of truth + commands ("" = off). params: the
+    vehicle parameter TOML ("" = the packaged ISiMI100). host_hub: host the CAN hub for a remote bus.
+    """
+
+    time_mode: Literal["realtime", "lockstep"] = "realtime"
+    control_rate_hz: float = 20.0
+    sensor_profile: Literal["basin", "sea"] = "basin"
+    seed: int = 0
+    actuator_timeout_periods: int = 5
+    echo_timeout_s: float = 10.0
+    duration_s: float = 0.0
+    stop_on_state: tuple[str, ...] = ()
+    stop_delay_s: float = 0.0
+    truth_log: str = ""
+    params: str = ""
+    host_hub: bool = True
+
+    def __post_init__(self) -> None:
+        require(1.0 <= self.control_rate_hz <= 200.0, "control_rate_hz must be within 1..200")
+        require(self.actuator_timeout_periods >= 1, "actuator_timeout_periods must be >= 1")
+        require(self.echo_timeout_s > 0.0, "echo_timeout_s must be > 0")
+        require(self.duration_s >= 0.0 and self.stop_delay_s >= 0.0, "durations must be >= 0")
+        for s in self.stop_on_state:
+            require(s in m.MissionStateCode.__members__, f"stop_on_state: unknown state {s!r}")
+
+
+@dataclass(frozen=True)
+class InitialConfig:
+    """The ``[initial]`` table: where the vehicle starts, at rest (NED m, degrees)."""
+
+    x_m: float = 0.0
+    y_m: float = 0.0
+    depth_m: float = 1.0
+    yaw_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class WaterCurrentConfig:
+    """The ``[current]`` table: the direction the water flows towards, degrees from north (NED)."""
+
+    speed_mps: float = 0.0
+    direction_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        require(0.0 <= self.speed_mps <= 3.0, "current speed_mps must be within 0..3")
+
+
+@dataclass(frozen=True)
+class HilConfig:
+    bus: BusConfig = field(default_factory=BusConfig)
+    bench: BenchConfig = field(default_factory=BenchConfig)
+    initial: InitialConfig = field(default_factory=InitialConfig)
+    current: WaterCurrentConfig = field(default_factory=WaterCurrentConfig)
+
+
+def load_hil_config(path: str | Path | None, overrides: dict[str, dict[str, Any]] | None = None) -> HilConfig:
+    p = Path(path) if path else DEFAULT_CONFIG_PATH
+    data = load_toml(p)
+    for table, values in (overrides or {}).items():
+        data.setdefault(table, {}).update(values)
+    return from_table(HilConfig, data, str(p))
+
+
+# --- the actuator node -----------------------------------------------------------------------------
+@dataclass
+class ActuatorNode:
+    """Commands from the bus (already E2E-checked) into the watchdog; mode handling.
+
+    SAFE: fins neutral, propeller off, and a latched failsafe is cleared (the onboard acknowledged it).
+    ARMED: follow the commands. ABORT: fins as commanded, propeller off.
+    """
+
+    timeout_periods: int
+    watchdog: WatchdogState = field(default_factory=WatchdogState)
+    fin: m.FinCmd | None = None
+    prop: m.PropCmd | None = None
+    fresh: bool = False
+
+    def take(self, msg: m.BusMessage) -> None:
+        if isinstance(msg, m.FinCmd):
+            self.fin, self.fresh = msg, True
+        elif isinstance(msg, m.PropCmd):
+            self.prop, self.fresh = msg, True
+
+    def end_period(self) -> ActuatorCommand:
+        """Close one control period: advance the watchdog; the command the actuators follow."""
+        cmd: ActuatorCommand | None = None
+        if self.fresh and self.fin is not None and self.prop is not None:
+            mode = self.prop.mode
+            if mode is m.ActuatorMode.SAFE:
+                cmd = ActuatorCommand()
+                if self.watchdog.failsafe:
+                    log.info("actuator failsafe cleared by a SAFE command")
+                    self.watchdog = watchdog_rearm(self.watchdog)
+            else:
+                rps = self.prop.propeller_rps if mode is m.ActuatorMode.ARMED else 0.0
+                cmd = ActuatorCommand(
+                    self.fin.rudder_rad, self.fin.stern_port_rad, self.fin.stern_starboard_rad, rps
+                )
+        was = self.watchdog.failsafe
+        self.watchdog = watchdog_tick(self.watchdog, cmd, self.timeout_periods)
+        if self.watchdog.failsafe and not was:
+            log.warning("actuator failsafe: no valid command for %d periods", self.timeout_periods)
+        self.fresh = False
+        return watchdog_output(self.watchdog)
+
+
+# --- sensor frames -----------------------------------------------------------------------------------
+def _clip(value: float, lo: float, hi: float) -> float:
+    """A sensor saturates at the end of its frame's range (a NaN reading would be dropped, never sent)."""
+    return min(max(value, lo), hi)
+
+
+def sensor_frames(meas: Measurement) -> list[m.BusMessage]:
+    """The bus messages of one measurement (values clipped to the DBC ranges, as a real sensor saturates)."""
+    t = meas.t_sample_s
+    if isinstance(meas, AhrsMeasurement):
+        return [
+            m.AhrsAttitude(
+                _clip(meas.roll_rad, -3.1416, 3.1416),
+                _clip(meas.pitch_rad, -1.5708, 1.5708),
+                _clip(meas.yaw_rad, -3.1416, 3.1416),
+                t,
+            ),
+            m.AhrsRates(
+                _clip(meas.roll_rate_radps, -6.5, 6.5),
+                _clip(meas.pitch_rate_radps, -6.5, 6.5),
+                _clip(meas.yaw_rate_radps, -6.5, 6.5),
+                t,
+            ),
+        ]
+    if isinstance(meas, DepthMeasurement):
+        return [m.DepthMeas(_clip(meas.depth_m, -10.0, 800.0), t)]
+    if isinstance(meas, DvlMeasurement):
+        return [
+            m.DvlVelocity(
+                _clip(meas.u_mps, -10.0, 10.0),
+                _clip(meas.v_mps, -10.0, 10.0),
+                _clip(meas.w_mps, -10.0, 10.0),
+                True,
+                t,
+            )
+        ]
+    assert isinstance(meas, FixMeasurement)
+    return [m.PositionFix(_clip(meas.x_m, -8000.0, 8000.0), _clip(meas.y_m, -8000.0, 8000.0), t)]
+
+
+# --- the bench ---------------------------------------------------------------------------------------
+TRUTH_COLUMNS = (
+    "t_s",
+    "x_m",
+    "y_m",
+    "depth_m",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "u_mps",
+    "v_mps",
+    "w_mps",
+    "p_radps",
+    "q_radps",
+    "r_radps",
+    "rudder_cmd_rad",
+    "stern_port_cmd_rad",
+    "stern_starboard_cmd_rad",
+    "propeller_cmd_rps",
+    "rudder_rad",
+    "stern_port_rad",
+    "stern_starboard_rad",
+    "propeller_rps",
+    "failsafe",
+    "onboard_state",
+)
+
+
+class EchoTimeout(RuntimeError):
+    """The onboard did not echo a SYNC in time (lock-step)."""
+
+
+@dataclass
+class BenchResult:
+    ticks: int = 0
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    started: bool = False
+    onboard_state: str = ""
+    failsafe_timeouts: int = 0
+    rejected: dict[str, int] = field(default_factory=dict)
+    stop_reason: str = ""
+
+
+class Bench:
+    """The simulation side of the bench: truth, actuators, sensors; one :meth:`period` per control period."""
+
+    def __init__(self, cfg: HilConfig, params: VehicleParams | None = None) -> None:
+        self.cfg = cfg
+        params = params or load_params(cfg.bench.params or None)
+        direction = math.radians(cfg.current.direction_deg)
+        current = CurrentParams(
+            cfg.current.speed_mps * math.cos(direction), cfg.current.speed_mps * math.sin(direction), 0.0
+        )
+        self.setup: SimSetup = make_setup(
+            params, cfg.bench.sensor_profile, current, control_period_s=1.0 / cfg.bench.control_rate_hz
+        )
+        ini = cfg.initial
+        body = BodyState(ini.x_m, ini.y_m, ini.depth_m, 0.0, 0.0, math.radians(ini.yaw_deg))
+        self.state: SimState = initial_state(self.setup, body=body)
+        self.rng = np.random.default_rng(cfg.bench.seed)
+        # Pre-start samples (their count depends on how long the operator takes) use their own generator.
+        self.idle_rng = np.random.default_rng([cfg.bench.seed, 1])
+        self.node = ActuatorNode(cfg.bench.actuator_timeout_periods)
+        self.pending: list[Measurement] = []
+        self.applied = ActuatorCommand()
+
+    def idle_measurements(self) -> list[Measurement]:
+        """All sensors sampled at the frozen start state (before simulated time starts)."""
+        st = self.state
+        return sample(st.body, st.t_s, (True, True, True, True), self.setup.sensors, self.idle_rng)
+
+    def period(self, integrate: bool) -> ActuatorCommand:
+        """Close a control period: the watchdog's command; integrate it if the clock runs."""
+        cmd = self.node.end_period()
+        if integrate:
+            result = sim_step(self.state, cmd, self.setup, self.rng)
+            self.state = result.state
+            self.pending.extend(result.measurements)
+            self.applied = result.applied_command
+        return cmd
+
+    def status_frames(self, t_s: float) -> list[m.BusMessage]:
+        a = self.state.actuators
+        lim = 0.5236
+        wd = self.node.watchdog
+        return [
+            m.FinStatus(
+                _clip(a.rudder_rad, -lim, lim),
+                _clip(a.stern_port_rad, -lim, lim),
+                _clip(a.stern_starboard_rad, -lim, lim),
+                False,
+                wd.failsafe,
+                t_s,
+            ),
+            m.PropStatus(
+                _clip(a.propeller_rps, -40.0, 40.0),
+                self.node.prop is not None and self.node.prop.mode is m.ActuatorMode.ARMED,
+                wd.failsafe,
+                False,
+                0,
+                t_s,
+            ),
+        ]
+
+    def truth_row(self, cmd: ActuatorCommand, onboard_state: str) -> list[Any]:
+        s, a = self.state.body, self.state.actuators
+        return [
+            round(self.state.t_s, 6),
+            s.x_m,
+            s.y_m,
+            s.z_m,
+            math.degrees(s.roll_rad),
+            math.degrees(s.pitch_rad),
+            math.degrees(s.yaw_rad),
+            s.u_mps,
+            s.v_mps,
+            s.w_mps,
+            s.p_radps,
+            s.q_radps,
+            s.r_radps,
+            cmd.rudder_rad,
+            cmd.stern_port_rad,
+            cmd.stern_starboard_rad,
+            cmd.propeller_rps,
+            a.rudder_rad,
+            a.stern_port_rad,
+            a.stern_starboard_rad,
+            a.propeller_rps,
+            int(self.node.watchdog.failsafe),
+            onboard_state,
+        ]
+
+
+def _heartbeats(uptime_s: float, failsafe: bool) -> list[m.BusMessage]:
+    up = min(max(uptime_s, 0.0), 167772.0)
+    return [
+        m.ActuatorsHeartbeat(m.NodeHealth.FAILSAFE if failsafe else m.NodeHealth.OK, round(up, 2), up),
+        m.SensorsHeartbeat(m.NodeHealth.OK, round(up, 2), up),
+    ]
+
+
+def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -> BenchResult:
+    """Run the bench until ``stop``, the duration, a stop state, or (lock-step) a missing echo."""
+    bench = Bench(cfg)
+    hub: BenchHub | None = None
+    codec = Codec()
+    if bus_override is not None:
+        bus = bus_override
+    elif cfg.bus.interface == "remote" and cfg.bench.host_hub:
+        hub = BenchHub(cfg.bus.channel, cfg.bus.hub_channel)
+        bus = hub.local_bus()
+    else:
+        bus = open_bus(cfg.bus, stop=stop)
+    listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+    port = BusPort(bus, time.monotonic, listen, codec, record=cfg.bus.record or None)
+    writer = None
+    log_file = None
+    if cfg.bench.truth_log:
+        Path(cfg.bench.truth_log).parent.mkdir(parents=True, exist_ok=True)
+        log_file = Path(cfg.bench.truth_log).open("w", newline="")
+        writer = csv.writer(log_file)
+        writer.writerow(TRUTH_COLUMNS)
+    result = BenchResult()
+    t_wall0 = time.monotonic()
+    try:
+        if cfg.bench.time_mode == "lockstep":
+            _run_lockstep(bench, port, cfg, stop, writer, result)
+        else:
+            _run_realtime(bench, port, cfg, stop, writer, result)
+    finally:
+        result.wall_time_s = time.monotonic() - t_wall0
+        result.sim_time_s = bench.state.t_s
+        result.failsafe_timeouts = bench.node.watchdog.timeouts
+        result.rejected = dict(port.receiver.rejected)
+        if log_file is not None:
+            log_file.close()
+        port.close()
+        if hub is not None:
+            hub.close()
+    return result
+
+
+def _onboard_state(msg: m.BusMessage, current: str) -> str:
+    return msg.node_state.name if isinstance(msg, m.OnboardHeartbeat) else current
+
+
+def _should_stop(bench: Bench, cfg: HilConfig, result: BenchResult, stop_at_s: list[float]) -> bool:
+    t = bench.state.t_s
+    if cfg.bench.duration_s and t >= cfg.bench.duration_s - 1e-9:
+        result.stop_reason = f"duration {cfg.bench.duration_s:g} s reached"
+        return True
+    if result.onboard_state in cfg.bench.stop_on_state:
+        if not stop_at_s:
+            stop_at_s.append(t + cfg.bench.stop_delay_s)
+        if t >= stop_at_s[0] - 1e-9:
+            result.stop_reason = f"onboard {result.onboard_state}"
+            return True
+    return False
+
+
+def _run_lockstep(
+    bench: Bench, port: BusPort, cfg: HilConfig, stop: threading.Event, writer: Any, result: BenchResult
+) -> None:
+    period = bench.setup.control_period_s
+    tick = 0
+    next_wall = time.monotonic()
+    stop_at: list[float] = []
+    last_hb_s = -math.inf
+    while not stop.is_set():
+        t = bench.state.t_s
+        started = result.started
+        msgs: list[m.BusMessage] = []
+        for meas in bench.pending if started else bench.idle_measurements():
+            msgs.extend(sensor_frames(meas))
+        bench.pending.clear()
+        msgs.extend(bench.status_frames(t))
+        if t - last_hb_s >= 1.0 - 1e-9 or (not started and tick % round(1.0 / period) == 0):
+            msgs.extend(_heartbeats(t, bench.node.watchdog.failsafe))
+            last_hb_s = t
+        port.send_all(msgs)
+        sync = m.Sync(tick & 0x0FFFFFFF, round(t, 3), t)
+        port.send(sync)
+        now = time.monotonic()
+        deadline = now + cfg.bench.echo_timeout_s
+        resend_at = now + 0.5
+        while True:
+            msg = port.recv(0.05)
+            if msg is None:
+                if stop.is_set():
+                    return
+                now = time.monotonic()
+                if not started and now > resend_at:
+                    # Before the start the onboard may not be connected yet: offer the same tick again
+                    # (the onboard answers a repeated tick without ticking twice). Not on the clock.
+                    port.send(sync)
+                    resend_at = now + 0.5
+                    deadline = now + cfg.bench.echo_timeout_s
+                elif now > deadline:
+                    raise EchoTimeout(
+                        f"no SYNC_ACK for tick {tick} within {cfg.bench.echo_timeout_s:g} s (is auv-onboard "
+                        "running in lock-step on this bus?)"
+                    )
+                continue
+            if isinstance(msg, m.SyncAck):
+                if msg.tick == tick & 0x0FFFFFFF:
+                    break
+                continue
+            result.onboard_state = _onboard_state(msg, result.onboard_state)
+            bench.node.take(msg)
+        if not result.started and result.onboard_state == "RUNNING":
+            result.started = True
+            log.info("onboard mission running: simulated time starts")
+        cmd = bench.period(integrate=result.started)
+        tick += 1
+        result.ticks = tick
+        if result.started:
+            if writer is not None:
+                writer.writerow(bench.truth_row(cmd, result.onboard_state))
+            if _should_stop(bench, cfg, result, stop_at):
+                return
+        else:
+            # Before the start, pace the SYNCs by the wall clock (nothing to simulate, no need to hurry).
+            next_wall += period
+            delay = next_wall - time.monotonic()
+            if delay > 0:
+                stop.wait(delay)
+            else:
+                next_wall = time.monotonic()
+
+
+def _run_realtime(
+    bench: Bench, port: BusPort, cfg: HilConfig, stop: threading.Event, writer: Any, result: BenchResult
+) -> None:
+    period = bench.setup.control_period_s
+    next_wall = time.monotonic()
+    stop_at: list[float] = []
+    last_hb_s = -math.inf
+    result.started = True
+    while not stop.is_set():
+        for msg in port.drain():
+            result.onboard_state = _onboard_state(msg, result.onboard_state)
+            bench.node.take(msg)
+        cmd = bench.period(integrate=True)
+        t = bench.state.t_s
+        msgs: list[m.BusMessage] = []
+        for meas in bench.pending:
+            msgs.extend(sensor_frames(meas))
+        bench.pending.clear()
+        msgs.extend(bench.status_frames(t))
+        if t - last_hb_s >= 1.0 - 1e-9:
+            msgs.extend(_heartbeats(t, bench.node.watchdog.failsafe))
+            last_hb_s = t
+        port.send_all(msgs)
+        result.ticks += 1
+        if writer is not None:
+            writer.writerow(bench.truth_row(cmd, result.onboard_state))
+        if _should_stop(bench, cfg, result, stop_at):
+            return
+        next_wall += period
+        delay = next_wall - time.monotonic()
+        if delay > 0:
+            stop.wait(delay)
+        elif delay < -period:
+            next_wall = time.monotonic()  # fell behind by more than a period: do not try to catch up
+
+
+# --- CLI ---------------------------------------------------------------------------------------------
+def _run_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="auv-hil run",
+        description=(
+            "Run the HIL bench. Hosts the CAN hub (remote bus) and flies the 6-DOF ISiMI100 model. Reads "
+            "FIN_CMD and PROP_CMD (and SYNC_ACK in lock-step); publishes AHRS, DEPTH, DVL, POSITION_FIX at "
+            "the sensor profile's rates, FIN_STATUS and PROP_STATUS every control period, actuator and "
+            "sensor heartbeats at 1 Hz. Time modes: realtime (default; paced by the monotonic clock) or "
+            "lockstep (one SYNC per control period, integrates after the onboard's SYNC_ACK; simulated time "
+            "starts when the onboard reports RUNNING; no wall clock is read, so runs repeat exactly)."
+        ),
+    )
+    p.add_argument("--config", help=f"bench TOML (default {DEFAULT_CONFIG_PATH})")
+    p.add_argument("--mode", choices=["realtime", "lockstep"], help="time mode (overrides [bench] time_mode)")
+    p.add_argument("--channel", help="bus channel (overrides [bus] channel), e.g. ws://127.0.0.1:54701/")
+    p.add_argument("--record", help="write every frame to this .blf/.asc file")
+    p.add_argument("--truth-log", help="CSV of truth and commands, one row per control period")
+    p.add_argument("--start", help="initial pose X,Y,DEPTH,YAW_DEG (NED m, deg)")
+    p.add_argument("--current", help="SPEED_MPS,DIR_DEG (the direction the water flows towards)")
+    p.add_argument("--seed", type=int, help="noise seed")
+    p.add_argument("--duration", type=float, help="simulated seconds after the start (0 = until stopped)")
+    p.add_argument("--stop-on", action="append", help="end when the onboard reports this state (repeatable)")
+    p.add_argument("--stop-delay", type=float, help="simulated seconds to run on after --stop-on")
+    p.add_argument("--profile", choices=["basin", "sea"], help="sensor profile")
+    p.add_argument("--summary-json", help="write a summary of the run to this file at the end")
+    p.add_argument("--log-level", default="INFO")
+    return p
+
+
+def _floats(text: str, n: int, what: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ConfigError(f"{what}: expected {n} comma-separated numbers, got {text!r}") from None
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"{what}: expected {n} finite comma-separated numbers, got {text!r}")
+    return values
+
+
+def run_main(argv: list[str]) -> int:
+    args = _run_parser().parse_args(join_negative_values(argv, NUMERIC_OPTIONS))
+    logging.basicConfig(
+        level=getattr(logging, str(args.log_level).upper(), logging.INFO),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    logging.getLogger("can_remote").setLevel(logging.WARNING)
+    try:
+        over: dict[str, dict[str, Any]] = {"bench": {}, "bus": {}, "initial": {}, "current": {}}
+        if args.mode:
+            over["bench"]["time_mode"] = args.mode
+        if args.channel:
+            over["bus"]["channel"] = args.channel
+        if args.record:
+            over["bus"]["record"] = args.record
+        if args.truth_log:
+            over["bench"]["truth_log"] = args.truth_log
+        if args.seed is not None:
+            over["bench"]["seed"] = args.seed
+        if args.duration is not None:
+            over["bench"]["duration_s"] = args.duration
+        if args.stop_on:
+            over["bench"]["stop_on_state"] = list(args.stop_on)
+        if args.stop_delay is not None:
+            over["bench"]["stop_delay_s"] = args.stop_delay
+        if args.profile:
+            over["bench"]["sensor_profile"] = args.profile
+        if args.start:
+            x, y, depth, yaw = _floats(args.start, 4, "--start")
+            over["initial"] = {"x_m": x, "y_m": y, "depth_m": depth, "yaw_deg": yaw}
+        if args.current:
+            speed, direction = _floats(args.current, 2, "--current")
+            over["current"] = {"speed_mps": speed, "direction_deg": direction}
+        cfg = load_hil_config(args.config, over)
+    except ConfigError as exc:
+        print(f"auv-hil: {exc}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+
+    def _stop(signum: int, _frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
+    log.info("bench: %s, %s bus %s", cfg.bench.time_mode, cfg.bus.interface, cfg.bus.channel)
+    code = 0
+    try:
+        result = run_bench(cfg, stop)
+    except (EchoTimeout, BusUnavailable, ConfigError, OSError) as exc:
+        print(f"auv-hil: {exc}", file=sys.stderr)
+        return 3 if isinstance(exc, EchoTimeout) else 1
+    log.info(
+        "bench stopped (%s): %d ticks, %.1f s simulated in %.1f s",
+        result.stop_reason or "signal",
+        result.ticks,
+        result.sim_time_s,
+        result.wall_time_s,
+    )
+    if args.summary_json:
+        Path(args.summary_json).write_text(json.dumps(result.__dict__, indent=2))
+    return code
+
+
+def main(argv: list[str]) -> int:
+    """Entry for ``auv-hil run ...`` and ``auv-hil scenario ...`` (argv starts with the sub-command)."""
+    if argv[0] == "run":
+        return run_main(argv[1:])
+    from hil_sim.scenario import main as scenario_main
+
+    return scenario_main(argv[1:])

@@ -1,0 +1,140 @@
+"""Sensor models: AHRS, depth, DVL and position fix, each with its own rate and seeded white noise.
+
+Truth stays in :class:`hil_sim.model.dynamics.BodyState`; measurements are new frozen objects carrying
+``t_sample_s``, the simulation time of the truth they were computed from. Sample instants are integer
+multiples of the sensor period, rounded to whole integration steps (so the effective rate is at most
+1/step_s and the schedule is exact, with no floating-point drift).
+
+Noise: zero-mean Gaussian, 1-sigma from the profile, drawn from the caller's ``numpy.random.Generator`` in a
+fixed order (AHRS, depth, DVL, fix), so a seed reproduces a run bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hil_sim.model.dynamics import BodyState
+from hil_sim.model.params import SensorProfile
+from onboard.protocol.conventions import wrap_pi
+
+
+@dataclass(frozen=True, slots=True)
+class AhrsMeasurement:
+    """Attitude (rad; yaw wrapped to (-pi, pi]) and body rates p, q, r (rad/s) at ``t_sample_s``."""
+
+    t_sample_s: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    roll_rate_radps: float
+    pitch_rate_radps: float
+    yaw_rate_radps: float
+
+
+@dataclass(frozen=True, slots=True)
+class DepthMeasurement:
+    """Depth of the CB below the surface (m, NED z) at ``t_sample_s``."""
+
+    t_sample_s: float
+    depth_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class DvlMeasurement:
+    """Body-frame velocity over ground (m/s; bottom track) at ``t_sample_s``."""
+
+    t_sample_s: float
+    u_mps: float
+    v_mps: float
+    w_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class PositionFix:
+    """Horizontal NED position (m) at ``t_sample_s`` (basin: image tracking; sea: acoustic LBL)."""
+
+    t_sample_s: float
+    x_m: float
+    y_m: float
+
+
+Measurement = AhrsMeasurement | DepthMeasurement | DvlMeasurement | PositionFix
+
+SENSOR_NAMES = ("ahrs", "depth", "dvl", "fix")
+
+
+@dataclass(frozen=True, slots=True)
+class SensorSchedule:
+    """Sample periods and next due instants, in whole integration steps (order: AHRS, depth, DVL, fix)."""
+
+    period_steps: tuple[int, int, int, int]
+    next_due_step: tuple[int, int, int, int]
+
+
+def make_schedule(profile: SensorProfile, step_s: float, start_step: int = 0) -> SensorSchedule:
+    """A schedule whose first samples fall on ``start_step`` (and every period after it)."""
+    rates = (profile.ahrs_rate_hz, profile.depth_rate_hz, profile.dvl_rate_hz, profile.fix_rate_hz)
+    periods = tuple(max(1, round(1.0 / (rate * step_s))) for rate in rates)
+    return SensorSchedule(periods, (start_step,) * 4)  # type: ignore[arg-type]
+
+
+def due_mask(schedule: SensorSchedule, step_index: int) -> tuple[bool, bool, bool, bool]:
+    """Which sensors sample at integration step ``step_index``."""
+    d = schedule.next_due_step
+    return (d[0] <= step_index, d[1] <= step_index, d[2] <= step_index, d[3] <= step_index)
+
+
+def advance_schedule(schedule: SensorSchedule, step_index: int) -> SensorSchedule:
+    """Move every due sensor's next instant past ``step_index`` (whole periods, phase kept)."""
+    nxt = []
+    for due, period in zip(schedule.next_due_step, schedule.period_steps, strict=True):
+        if due <= step_index:
+            due += period * ((step_index - due) // period + 1)
+        nxt.append(due)
+    return SensorSchedule(schedule.period_steps, tuple(nxt))  # type: ignore[arg-type]
+
+
+def sample(
+    truth: BodyState,
+    t_s: float,
+    mask: tuple[bool, bool, bool, bool],
+    profile: SensorProfile,
+    rng: np.random.Generator,
+) -> list[Measurement]:
+    """Measurements of the sensors in ``mask`` from ``truth`` at ``t_s``, with noise drawn from ``rng``."""
+    out: list[Measurement] = []
+    if mask[0]:
+        e = rng.standard_normal(6)
+        sa, sy, sr = profile.ahrs_attitude_std_rad, profile.ahrs_yaw_std_rad, profile.ahrs_rate_std_radps
+        out.append(
+            AhrsMeasurement(
+                t_s,
+                truth.roll_rad + sa * float(e[0]),
+                truth.pitch_rad + sa * float(e[1]),
+                wrap_pi(truth.yaw_rad + sy * float(e[2])),
+                truth.p_radps + sr * float(e[3]),
+                truth.q_radps + sr * float(e[4]),
+                truth.r_radps + sr * float(e[5]),
+            )
+        )
+    if mask[1]:
+        e = rng.standard_normal(1)
+        out.append(DepthMeasurement(t_s, truth.z_m + profile.depth_std_m * float(e[0])))
+    if mask[2]:
+        e = rng.standard_normal(3)
+        s = profile.dvl_std_mps
+        out.append(
+            DvlMeasurement(
+                t_s,
+                truth.u_mps + s * float(e[0]),
+                truth.v_mps + s * float(e[1]),
+                truth.w_mps + s * float(e[2]),
+            )
+        )
+    if mask[3]:
+        e = rng.standard_normal(2)
+        s = profile.fix_std_m
+        out.append(PositionFix(t_s, truth.x_m + s * float(e[0]), truth.y_m + s * float(e[1])))
+    return out

@@ -1,0 +1,306 @@
+"""The autopilot core: the pure pieces composed into one step per control tick.
+
+Per tick, in this order: sensor cache -> navigation (Kalman filter) -> failsafes -> mission (events,
+planning when a goal becomes active) -> guidance -> revised PD -> saturation (inside the controller) ->
+state-dependent output (neutral, abort, hold). No clock, no bus: the loop (:mod:`onboard.loop`) gives the
+latest-value cache of bus messages, ``now_s`` and ``dt_s`` and sends what comes back.
+
+The composition keeps the explicit states of the pure steps (filter, guidance, controller, failsafe,
+mission status, the active path); transitions are logged once, never per tick.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from onboard import control, guidance, nav
+from onboard.config import OnboardConfig
+from onboard.control.actuators import NEUTRAL, ActuatorCommand, ActuatorFlag, saturate
+from onboard.guidance.guidance import GuidanceReference
+from onboard.mission import failsafe
+from onboard.mission.failsafe import FailsafeFlag
+from onboard.mission.model import Goal, Mission
+from onboard.mission.state import MissionEvent, MissionState, MissionStatus, Transition, transition
+from onboard.planner.errors import PlannerError
+from onboard.planner.path import Path
+from onboard.planner.planner import plan
+from onboard.protocol import messages as m
+
+log = logging.getLogger(__name__)
+
+_STATE_CODE = {s: m.MissionStateCode[s.name] for s in MissionState}
+
+
+@dataclass(frozen=True)
+class StepOutput:
+    """One tick's result: the command the loop sends and the telemetry it records."""
+
+    command: ActuatorCommand
+    mode: m.ActuatorMode
+    mission_state: m.MissionStateCode
+    status: MissionStatus
+    nav: nav.NavState
+    reference: GuidanceReference | None
+    failsafe_flags: FailsafeFlag
+    planner_error: str
+
+    @property
+    def rudder_rad(self) -> float:
+        return self.command.rudder_rad
+
+    @property
+    def stern_port_rad(self) -> float:
+        return self.command.stern_port_rad
+
+    @property
+    def stern_starboard_rad(self) -> float:
+        return self.command.stern_starboard_rad
+
+    @property
+    def propeller_rps(self) -> float:
+        return self.command.propeller_rps
+
+    def telemetry_row(self) -> dict[str, float | int | str]:
+        n, r, c = self.nav, self.reference, self.command
+        row: dict[str, float | int | str] = {
+            "state": self.status.state.name,
+            "goal_index": self.status.goal_index,
+            "x_m": n.x_m,
+            "y_m": n.y_m,
+            "depth_m": n.depth_m,
+            "roll_rad": n.roll_rad,
+            "pitch_rad": n.pitch_rad,
+            "yaw_rad": n.yaw_rad,
+            "u_mps": n.u_mps,
+            "nav_conditions": int(n.conditions),
+            "rudder_rad": c.rudder_rad,
+            "stern_port_rad": c.stern_port_rad,
+            "stern_starboard_rad": c.stern_starboard_rad,
+            "propeller_rps": c.propeller_rps,
+            "actuator_flags": int(c.flags),
+            "failsafe_flags": int(self.failsafe_flags),
+        }
+        nan = math.nan
+        row.update(
+            {
+                "ref_x_m": r.x_m if r else nan,
+                "ref_y_m": r.y_m if r else nan,
+                "ref_depth_m": r.depth_m if r else nan,
+                "ref_yaw_rad": r.yaw_rad if r else nan,
+                "along_track_m": r.along_track_m if r else nan,
+                "cross_track_m": r.cross_track_m if r else nan,
+                "e_along_m": r.e_along_m if r else nan,
+                "e_cross_m": r.e_cross_m if r else nan,
+                "e_depth_m": r.e_depth_m if r else nan,
+                "e_yaw_rad": r.e_yaw_rad if r else nan,
+            }
+        )
+        return row
+
+
+@dataclass
+class Autopilot:
+    """The onboard core driven by :class:`onboard.loop.ControlLoop` (one :meth:`step` per tick)."""
+
+    config: OnboardConfig
+    mission: Mission = field(default_factory=lambda: Mission(()))
+    status: MissionStatus = field(default_factory=MissionStatus)
+    nav_state: nav.NavFilterState = field(default_factory=nav.NavFilterState.initial)
+    guidance_state: guidance.GuidanceState = field(default_factory=guidance.GuidanceState)
+    controller_state: control.ControllerState = field(default_factory=control.ControllerState)
+    failsafe_state: failsafe.FailsafeState = field(default_factory=failsafe.FailsafeState)
+    path: Path | None = None
+    path_goal_index: int = -1
+    planner_error: str = ""
+    consecutive_overruns: int = 0
+    last_nav: nav.NavState | None = None
+    goals_reached: int = 0
+    events: list[str] = field(default_factory=list)  # transitions since the last take_events()
+    autostart_pending: bool = False
+
+    # --- commands from outside (mission file, MAVLink) ------------------------------------------
+    def apply(self, event: MissionEvent, detail: str = "") -> Transition:
+        """Apply a mission event; log accepted transitions once, rejected ones with the reason.
+
+        START (and RESUME) need a valid navigation solution: the vehicle does not run blind.
+        """
+        if event in (MissionEvent.START, MissionEvent.RESUME) and not (self.last_nav and self.last_nav.valid):
+            reason = f"{event.value} rejected: navigation not valid yet"
+            log.warning("mission event %s", reason)
+            return Transition(self.status, False, reason)
+        goal_count = len(self.mission.goals) if event is MissionEvent.MISSION_REPLACED else None
+        result = transition(self.status, event, goal_count=goal_count, detail=detail)
+        if result.accepted:
+            if result.status.state != self.status.state or event is not MissionEvent.GOAL_REACHED:
+                log.info(
+                    "mission %s -> %s (%s)", self.status.state.name, result.status.state.name, result.reason
+                )
+                self.events.append(f"{self.status.state.name}->{result.status.state.name}: {result.reason}")
+            self.status = result.status
+        else:
+            log.warning("mission event %s rejected: %s", event.value, result.reason)
+        return result
+
+    def replace_mission(self, mission: Mission) -> Transition:
+        """Replace the mission atomically (already validated); re-plan from the current pose if running."""
+        mission.validate()
+        old_mission, old_status = self.mission, self.status
+        self.mission = mission
+        result = self.apply(MissionEvent.MISSION_REPLACED)
+        if not result.accepted:
+            self.mission, self.status = old_mission, old_status
+            return result
+        self.path = None
+        self.path_goal_index = -1
+        return result
+
+    def request_autostart(self) -> None:
+        """Arm now and start as soon as the navigation solution is valid (``--autostart``)."""
+        self.apply(MissionEvent.ARM, "autostart")
+        self.autostart_pending = True
+
+    def set_current(self, index: int) -> bool:
+        """Make goal ``index`` the active goal (re-planned at the next tick when running)."""
+        if not 0 <= index < len(self.mission.goals):
+            log.warning(
+                "set current goal %d rejected: the mission has %d goals", index, len(self.mission.goals)
+            )
+            return False
+        self.status = replace(self.status, goal_index=index)
+        self.path_goal_index = -1
+        return True
+
+    def note_overruns(self, consecutive: int) -> None:
+        self.consecutive_overruns = consecutive
+
+    def take_events(self) -> list[str]:
+        out, self.events = self.events, []
+        return out
+
+    # --- one tick -------------------------------------------------------------------------------
+    def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> StepOutput:
+        """One tick at ``now_s`` (s) of period ``dt_s`` (s) from the latest-value cache of bus messages."""
+        cfg = self.config
+        nav_state, self.nav_state, _ = nav.step(nav_inputs(cache), self.nav_state, cfg.nav, now_s)
+        self.last_nav = nav_state
+        if self.autostart_pending and nav_state.valid and self.status.state is MissionState.ARMED:
+            self.autostart_pending = False
+            self.apply(MissionEvent.START, "autostart: navigation valid")
+
+        fs_flags = FailsafeFlag(0)
+        if self.status.active:
+            result, self.failsafe_state = failsafe.check(
+                nav_state, self.consecutive_overruns > 0, self.failsafe_state, cfg.failsafe
+            )
+            fs_flags = result.flags
+            if result.abort:
+                self.apply(MissionEvent.FAILSAFE, detail=result.reason)
+
+        reference: GuidanceReference | None = None
+        command = NEUTRAL
+        state = self.status.state
+        if state in (MissionState.RUNNING, MissionState.COMPLETE):
+            if state is MissionState.RUNNING and self.path_goal_index != self.status.goal_index:
+                self._plan_active_goal(nav_state)
+            if self.path is not None and self.status.state in (MissionState.RUNNING, MissionState.COMPLETE):
+                complete = self.status.state is MissionState.COMPLETE
+                reference, self.guidance_state, _ = guidance.step(
+                    nav_state, self.path, self.guidance_state, cfg.guidance, dt_s, complete=complete
+                )
+                if reference.arrived and not complete:
+                    self.goals_reached += 1
+                    self.apply(MissionEvent.GOAL_REACHED)
+                command, self.controller_state, _ = control.step(
+                    nav_state, reference, self.controller_state, cfg.control, dt_s
+                )
+        if self.status.state is MissionState.ABORT:
+            command = saturate(
+                failsafe.abort_command(cfg.failsafe), self.controller_state.command, cfg.control.limits, dt_s
+            )
+            self.controller_state = control.ControllerState(command=command)
+        elif self.status.state not in (MissionState.RUNNING, MissionState.COMPLETE):
+            # IDLE, ARMED, HOLD: propeller off, fins neutral (rate-limited from the last command).
+            command = saturate(NEUTRAL, self.controller_state.command, cfg.control.limits, dt_s)
+            self.controller_state = control.ControllerState(command=command)
+        mode = _actuator_mode(self.status.state)
+        return StepOutput(
+            command=command,
+            mode=mode,
+            mission_state=_STATE_CODE[self.status.state],
+            status=self.status,
+            nav=nav_state,
+            reference=reference,
+            failsafe_flags=fs_flags,
+            planner_error=self.planner_error,
+        )
+
+    def _plan_active_goal(self, nav_state: nav.NavState) -> None:
+        """Plan from the current pose to the active goal; on a planner error, HOLD with the reason."""
+        goal: Goal = self.mission.goals[self.status.goal_index]
+        self.path_goal_index = self.status.goal_index
+        self.guidance_state = guidance.GuidanceState()
+        self.controller_state = control.ControllerState(command=self.controller_state.command)
+        try:
+            self.path = plan(
+                (nav_state.x_m, nav_state.y_m, nav_state.yaw_rad),
+                (goal.x_m, goal.y_m, goal.yaw_rad),
+                self.config.planner,
+                self.mission.obstacles,
+                start_depth_m=max(nav_state.depth_m, 0.0),
+                goal_depth_m=goal.depth_m,
+            )
+            self.planner_error = ""
+            log.info(
+                "planned goal %d: %s, %.2f m, %d virtual goals",
+                self.status.goal_index,
+                self.path.word,
+                self.path.length_m,
+                len(self.path.virtual_goals),
+            )
+        except PlannerError as exc:
+            self.path = None
+            self.planner_error = f"{exc.reason}: {exc}"
+            log.error("cannot plan goal %d: %s", self.status.goal_index, self.planner_error)
+            self.apply(MissionEvent.HOLD, detail=f"planner: {self.planner_error}")
+
+
+def _actuator_mode(state: MissionState) -> m.ActuatorMode:
+    if state is MissionState.ABORT:
+        return m.ActuatorMode.ABORT
+    if state is MissionState.IDLE:
+        return m.ActuatorMode.SAFE
+    return m.ActuatorMode.ARMED
+
+
+def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:
+    """Convert the latest bus messages into navigation inputs (the unit conventions are the same)."""
+    att: m.AhrsAttitude | None = cache.get(m.AhrsAttitude)
+    rates: m.AhrsRates | None = cache.get(m.AhrsRates)
+    depth: m.DepthMeas | None = cache.get(m.DepthMeas)
+    dvl: m.DvlVelocity | None = cache.get(m.DvlVelocity)
+    fix: m.PositionFix | None = cache.get(m.PositionFix)
+    ahrs = None
+    if att is not None and rates is not None:
+        ahrs = nav.Ahrs(
+            att.roll_rad,
+            att.pitch_rad,
+            att.yaw_rad,
+            rates.p_radps,
+            rates.q_radps,
+            rates.r_radps,
+            min(att.t_sample_s, rates.t_sample_s),
+        )
+    return nav.NavInputs(
+        position=nav.PositionFix(fix.x_m, fix.y_m, fix.t_sample_s) if fix is not None else None,
+        dvl=nav.DvlVelocity(dvl.u_mps, dvl.v_mps, dvl.w_mps, dvl.t_sample_s)
+        if dvl is not None and dvl.valid
+        else None,
+        ahrs=ahrs,
+        depth=nav.Depth(depth.depth_m, depth.t_sample_s) if depth is not None else None,
+    )
+
+
+__all__ = ["ActuatorFlag", "Autopilot", "StepOutput", "nav_inputs"]

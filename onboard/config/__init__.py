@@ -1,0 +1,54 @@
+"""The onboard configuration: one TOML file, one frozen dataclass per table.
+
+Tables: [bus] (:class:`onboard.protocol.bus.BusConfig`), [loop] (:class:`onboard.loop.LoopConfig`),
+[planner], [nav], [guidance], [control] (with [control.paper], [control.improved], [control.limits]),
+[mission], [failsafe], [mavlink]. Every table is optional and every key has a default; unknown tables or
+keys and out-of-range values stop start-up with one clear line (:class:`ConfigError`).
+The default file is ``onboard/config/onboard.toml`` (the one the bench and the scenarios fly with).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from onboard.control.pd import ControlParams
+from onboard.guidance.guidance import GuidanceParams
+from onboard.loop import LoopConfig
+from onboard.mavlink.config import MavlinkConfig
+from onboard.mission.failsafe import FailsafeParams
+from onboard.mission.state import MissionParams
+from onboard.nav.estimator import NavParams
+from onboard.planner.config import PlannerConfig
+from onboard.protocol.bus import BusConfig
+from onboard.protocol.config import ConfigError, from_table, load_toml
+
+DEFAULT_CONFIG_PATH = Path(__file__).with_name("onboard.toml")
+
+
+@dataclass(frozen=True)
+class OnboardConfig:
+    bus: BusConfig = field(default_factory=BusConfig)
+    loop: LoopConfig = field(default_factory=LoopConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    nav: NavParams = field(default_factory=NavParams)
+    guidance: GuidanceParams = field(default_factory=GuidanceParams)
+    control: ControlParams = field(default_factory=ControlParams)
+    mission: MissionParams = field(default_factory=MissionParams)
+    failsafe: FailsafeParams = field(default_factory=FailsafeParams)
+    mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
+
+
+def config_from_dict(data: dict[str, Any], where: str) -> OnboardConfig:
+    """Build the configuration from a parsed TOML document (``where`` names it in errors)."""
+    return from_table(OnboardConfig, data, where)
+
+
+def load_config(path: str | Path | None = None) -> OnboardConfig:
+    """Read the onboard TOML (default: the packaged ``onboard.toml``)."""
+    p = Path(path) if path is not None else DEFAULT_CONFIG_PATH
+    return config_from_dict(load_toml(p), str(p))
+
+
+__all__ = ["DEFAULT_CONFIG_PATH", "ConfigError", "OnboardConfig", "config_from_dict", "load_config"]

@@ -1,0 +1,176 @@
+"""The vehicle endpoint over real UDP on 127.0.0.1 with the ground-station client and a fake loop."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.mission_files import goal_item, obstacle_item
+from onboard.mavlink import api
+from onboard.mavlink.endpoint import CAPABILITIES, VehicleLink
+from onboard.mission.model import Goal, Mission
+from tests.integration.mavlink.conftest import Vehicle
+
+GOALS = [goal_item(10.0, 0.0, 1.0, None), goal_item(10.0, 10.0, 2.0, 90.0)]
+
+
+def wait_for(
+    client: MavClient, kind: str, timeout_s: float = 3.0, pred=lambda m: True
+) -> mavlink.MAVLink_message:
+    t_end = time.monotonic() + timeout_s
+    while time.monotonic() < t_end:
+        m = client.recv(0.1)
+        if m is not None and m.get_type() == kind and pred(m):
+            return m
+    raise AssertionError(f"no {kind} within {timeout_s} s")
+
+
+def test_heartbeat_and_autopilot_version(vehicle: Vehicle) -> None:
+    with vehicle.client() as c:
+        hb = wait_for(c, "HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1)
+        assert hb.type == mavlink.MAV_TYPE_SUBMARINE and hb.autopilot == mavlink.MAV_AUTOPILOT_GENERIC
+        assert hb.get_srcComponent() == 1 and state_from_heartbeat(hb) == "IDLE"
+        assert c.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == 0
+        av = wait_for(c, "AUTOPILOT_VERSION")
+        assert av.capabilities == CAPABILITIES
+        assert av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+        assert c.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN) == 0
+        origin = wait_for(c, "GPS_GLOBAL_ORIGIN")
+        assert origin.latitude == round(vehicle.config.origin_lat_deg * 1e7)
+        assert c.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000) == 0
+        assert c.command(12345) == mavlink.MAV_RESULT_UNSUPPORTED
+
+
+def test_commands_judged_against_state_and_mission(vehicle: Vehicle) -> None:
+    with vehicle.client() as c:
+        assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # not armed
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0  # idempotent
+        assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # no goals
+        assert c.upload(GOALS).ok
+        wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "ARMED")
+        assert c.command(mavlink.MAV_CMD_MISSION_START) == 0
+        seen: list[str] = []
+        t_end = time.monotonic() + 5.0
+        while time.monotonic() < t_end and not {"reached 1", "text COMPLETE"} <= set(seen):
+            m = c.recv(0.1)
+            if m is not None and m.get_type() == "MISSION_ITEM_REACHED":
+                seen.append(f"reached {m.seq}")
+            elif m is not None and m.get_type() == "STATUSTEXT" and "COMPLETE" in m.text:
+                seen.append("text COMPLETE")
+        assert "reached 0" in seen and "reached 1" in seen and "text COMPLETE" in seen
+        cur = wait_for(c, "MISSION_CURRENT")
+        assert cur.total == 2 and cur.mission_state == mavlink.MISSION_STATE_COMPLETE
+        assert c.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH) == 0
+        wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "ABORT")
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == mavlink.MAV_RESULT_DENIED
+
+
+def test_mavsdk_style_mode_change_starts_mission_and_set_current(vehicle: Vehicle) -> None:
+    with vehicle.client() as c:
+        assert c.upload([goal_item(400.0, 400.0, 1.0, None), goal_item(-400, 0, 1, None)]).ok
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
+        assert c.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, 4) == 0  # PX4 AUTO/MISSION, as MAVSDK sends
+        wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "RUNNING")
+        assert c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == 0
+        wait_for(c, "MISSION_CURRENT", pred=lambda m: m.seq == 1)
+        assert c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 5) == mavlink.MAV_RESULT_DENIED
+        assert c.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0) == 0
+        wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "HOLD")
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0.0) == mavlink.MAV_RESULT_DENIED  # not forced
+
+
+def test_upload_download_fence_clear(vehicle: Vehicle) -> None:
+    with vehicle.client() as c:
+        assert c.upload(GOALS).ok
+        assert c.upload([obstacle_item(5.0, 5.0, 2.0)], mavlink.MAV_MISSION_TYPE_FENCE).ok
+        got = c.download()
+        assert [(i.x, i.y, i.z) for i in got] == [(g.x, g.y, g.z) for g in GOALS]
+        assert math.isnan(got[0].param4) and got[1].param4 == 90.0
+        assert len(c.download(mavlink.MAV_MISSION_TYPE_FENCE)) == 1
+        m = vehicle.link.mission()
+        assert len(m.goals) == 2 and m.obstacles[0].radius_m == 2.0
+        bad = c.upload([goal_item(10, 0, 1, None), goal_item(600, 0, 1, None)])
+        assert not bad.ok and bad.result_name == "MAV_MISSION_INVALID_PARAM5_X"
+        assert len(vehicle.link.mission().goals) == 2  # unchanged
+        assert c.clear(mavlink.MAV_MISSION_TYPE_ALL).ok
+        assert c.download() == [] and vehicle.link.mission().obstacles == ()
+
+
+def test_params_set_refuse_persist(tmp_path: Path) -> None:
+    v = Vehicle(tmp_path / "s").start(with_loop=False)
+    try:
+        with v.client() as c:
+            assert len(c.param_list()) == len(v.link.params.specs)
+            ok, val = c.param_set("PD_RUD_KP_Y", 0.25)
+            assert ok and val == pytest.approx(0.25)
+            ok, val = c.param_set("PD_RUD_KP_Y", 55.0)  # out of range: refused, old value re-sent
+            assert not ok and val == pytest.approx(0.25)
+            assert c.param_get("PD_RUD_KP_Y") == pytest.approx(0.25)
+        events = v.link.take_events()
+        assert api.ParamChanged("PD_RUD_KP_Y", pytest.approx(0.25)) in events
+    finally:
+        v.stop()
+    v2 = VehicleLink(v.config)
+    assert v2.params.get("PD_RUD_KP_Y") == pytest.approx(0.25)
+    assert api.ParamChanged("PD_RUD_KP_Y", pytest.approx(0.25)) in v2.take_events()
+
+
+def test_mission_persisted_and_initial_mission_wins(tmp_path: Path) -> None:
+    v = Vehicle(tmp_path / "s").start(with_loop=False)
+    try:
+        with v.client() as c:
+            assert c.upload(GOALS).ok
+    finally:
+        v.stop()
+    again = VehicleLink(v.config)
+    (ev,) = [e for e in again.take_events() if isinstance(e, api.MissionReplaced)]
+    assert [g.x_m for g in ev.mission.goals] == [10.0, 10.0]
+    given = Mission(goals=(Goal(1.0, 2.0, 3.0, None),))
+    wins = VehicleLink(v.config, initial_mission=given)
+    assert wins.mission().goals == given.goals
+    assert VehicleLink(v.config).mission().goals == given.goals  # and it was persisted
+
+
+def test_gcs_heartbeat_loss_emits_configured_action(tmp_path: Path) -> None:
+    v = Vehicle(tmp_path / "s", gcs_timeout_s=0.5, gcs_loss_action="hold").start(with_loop=False)
+    try:
+        c = v.client()
+        c.close()  # the GCS goes silent
+        t_end = time.monotonic() + 3.0
+        events: list = []
+        while time.monotonic() < t_end and not any(isinstance(e, api.GcsLinkLost) for e in events):
+            events += v.link.take_events()
+            time.sleep(0.05)
+        assert api.GcsLinkLost("hold") in events
+        with v.client():
+            t_end = time.monotonic() + 3.0
+            while time.monotonic() < t_end and api.GcsLinkRegained() not in events:
+                events += v.link.take_events()
+                time.sleep(0.05)
+        assert api.GcsLinkRegained() in events
+    finally:
+        v.stop()
+
+
+def test_events_flow_to_loop_without_blocking(vehicle: Vehicle) -> None:
+    # the loop API is cheap: 10,000 publish/take pairs in well under a second while the link runs
+    link = VehicleLink(vehicle.config)
+    t0 = time.perf_counter()
+    for i in range(10_000):
+        link.publish(api.VehicleSnapshot(t_s=i * 0.05))
+        link.take_events()
+    assert time.perf_counter() - t0 < 1.0
+
+
+def test_threads_do_not_leak(tmp_path: Path) -> None:
+    before = threading.active_count()
+    v = Vehicle(tmp_path / "s").start()
+    v.stop()
+    assert threading.active_count() <= before

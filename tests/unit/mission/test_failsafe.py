@@ -1,0 +1,89 @@
+"""Unit tests of the failsafes: each check, overruns in a row, logging once, the abort command."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from onboard.control import ActuatorLimits, saturate
+from onboard.mission.failsafe import (
+    FailsafeFlag,
+    FailsafeParams,
+    FailsafeState,
+    abort_command,
+    check,
+)
+from onboard.nav import NavCondition, NavState, nav_state_at
+from onboard.protocol.config import ConfigError, from_table
+
+P = FailsafeParams(max_depth_m=10.0, area_x_min_m=-50, area_x_max_m=50, area_y_min_m=-20, area_y_max_m=20)
+OK = nav_state_at(0.0, 0.0, 1.0)
+
+
+def test_healthy_navigation_passes() -> None:
+    result, _ = check(OK, False, FailsafeState(), P)
+    assert not result.abort and result.flags == FailsafeFlag(0) and result.reason == ""
+
+
+@pytest.mark.parametrize(
+    ("nav", "flag"),
+    [
+        (dataclasses.replace(OK, conditions=NavCondition.POSITION_INVALID), FailsafeFlag.NAV_STALE),
+        (dataclasses.replace(OK, conditions=NavCondition.AHRS_STALE), FailsafeFlag.NAV_STALE),
+        (dataclasses.replace(OK, attitude_age_s=1.5), FailsafeFlag.NAV_STALE),
+        (dataclasses.replace(OK, depth_age_s=math.inf), FailsafeFlag.NAV_STALE),
+        (dataclasses.replace(OK, x_m=math.nan), FailsafeFlag.NAV_STALE),
+        (nav_state_at(0.0, 0.0, 10.5), FailsafeFlag.DEPTH_LIMIT),
+        (nav_state_at(51.0, 0.0, 1.0), FailsafeFlag.AREA_BOUND),
+        (nav_state_at(0.0, -20.5, 1.0), FailsafeFlag.AREA_BOUND),
+    ],
+)
+def test_each_check_requests_abort(nav: NavState, flag: FailsafeFlag) -> None:
+    # GIVEN one failing condition  WHEN checked  THEN abort with that flag and a reason
+    result, state = check(nav, False, FailsafeState(), P)
+    assert result.abort and result.flags == flag and result.newly == flag
+    assert result.reason
+    # and the next tick with the same condition does not report it as new (log once)
+    again, _ = check(nav, False, state, P)
+    assert again.abort and again.newly == FailsafeFlag(0)
+
+
+def test_dvl_loss_alone_is_not_stale_navigation() -> None:
+    nav = dataclasses.replace(OK, conditions=NavCondition.DVL_STALE | NavCondition.POSITION_STALE)
+    assert not check(nav, False, FailsafeState(), P)[0].abort
+
+
+def test_overruns_must_be_in_a_row() -> None:
+    # GIVEN max_overruns_in_row = 3
+    params = dataclasses.replace(P, max_overruns_in_row=3)
+    state = FailsafeState()
+    # WHEN two overruns, a good tick, then three overruns
+    pattern = [True, True, False, True, True, True]
+    aborts = []
+    for overran in pattern:
+        result, state = check(OK, overran, state, params)
+        aborts.append(result.abort)
+    # THEN only the third overrun in a row aborts
+    assert aborts == [False, False, False, False, False, True]
+    assert result.flags == FailsafeFlag.OVERRUNS and "3 loop overruns" in result.reason
+
+
+def test_abort_command_is_propeller_off_fins_to_surface() -> None:
+    # GIVEN the default abort stern of 15 deg
+    cmd = abort_command(FailsafeParams())
+    # THEN propeller off, rudder centred, both planes NEGATIVE (nose up by the sign convention)
+    assert cmd.propeller_rps == 0.0 and cmd.rudder_rad == 0.0
+    assert cmd.stern_port_rad == cmd.stern_starboard_rad == pytest.approx(-math.radians(15.0))
+    # and it passes the limiter unchanged
+    out = saturate(cmd, cmd, ActuatorLimits(), 0.05)
+    assert out.stern_rad == pytest.approx(cmd.stern_rad) and out.flags == 0
+
+
+@pytest.mark.parametrize(
+    "table", [{"area_x_min_m": 10.0, "area_x_max_m": 0.0}, {"max_overruns_in_row": 0}, {"bogus": 1}]
+)
+def test_bad_failsafe_config(table: dict[str, object]) -> None:
+    with pytest.raises(ConfigError):
+        from_table(FailsafeParams, table, "onboard.toml [failsafe]")

@@ -1,0 +1,108 @@
+"""Unit tests of the mission state machine: the transition table, goal indices, rejections with reasons."""
+
+from __future__ import annotations
+
+import pytest
+
+from onboard.mission.state import MissionEvent, MissionParams, MissionState, MissionStatus, transition
+from onboard.protocol.config import ConfigError, from_table
+
+S, E = MissionState, MissionEvent
+
+# (from, event, to) for every accepted edge; every other (state, event) pair must be rejected.
+ACCEPTED = [
+    (S.IDLE, E.ARM, S.ARMED),
+    (S.IDLE, E.ABORT, S.ABORT),
+    (S.IDLE, E.MISSION_REPLACED, S.IDLE),
+    (S.ARMED, E.START, S.RUNNING),
+    (S.ARMED, E.DISARM, S.IDLE),
+    (S.ARMED, E.ABORT, S.ABORT),
+    (S.ARMED, E.FAILSAFE, S.ABORT),
+    (S.ARMED, E.MISSION_REPLACED, S.ARMED),
+    (S.RUNNING, E.HOLD, S.HOLD),
+    (S.RUNNING, E.ABORT, S.ABORT),
+    (S.RUNNING, E.FAILSAFE, S.ABORT),
+    (S.RUNNING, E.GOAL_REACHED, S.RUNNING),
+    (S.RUNNING, E.MISSION_REPLACED, S.RUNNING),
+    (S.HOLD, E.RESUME, S.RUNNING),
+    (S.HOLD, E.DISARM, S.IDLE),
+    (S.HOLD, E.ABORT, S.ABORT),
+    (S.HOLD, E.FAILSAFE, S.ABORT),
+    (S.HOLD, E.MISSION_REPLACED, S.HOLD),
+    (S.COMPLETE, E.DISARM, S.IDLE),
+    (S.COMPLETE, E.ABORT, S.ABORT),
+    (S.COMPLETE, E.FAILSAFE, S.ABORT),
+    (S.COMPLETE, E.MISSION_REPLACED, S.ARMED),
+    (S.ABORT, E.DISARM, S.IDLE),
+    (S.ABORT, E.MISSION_REPLACED, S.ABORT),
+]
+ACCEPTED_PAIRS = {(a, e) for a, e, _ in ACCEPTED}
+REJECTED = [(a, e) for a in S for e in E if (a, e) not in ACCEPTED_PAIRS]
+
+
+@pytest.mark.parametrize(("state", "event", "target"), ACCEPTED)
+def test_accepted_transitions(state: MissionState, event: MissionEvent, target: MissionState) -> None:
+    # GIVEN a mission of 3 goals in `state`, at goal 0
+    status = MissionStatus(state, 0, 3)
+    # WHEN the event arrives
+    tr = transition(status, event, goal_count=3, detail="test")
+    # THEN it is accepted with a reason naming the detail
+    assert tr.accepted and tr.status.state is target
+    assert "test" in tr.reason and tr.status.reason == tr.reason
+
+
+@pytest.mark.parametrize(("state", "event"), REJECTED)
+def test_rejected_transitions_leave_the_status_unchanged(state: MissionState, event: MissionEvent) -> None:
+    status = MissionStatus(state, 1, 3, "before")
+    tr = transition(status, event, goal_count=3)
+    assert not tr.accepted and tr.status == status
+    assert event.value in tr.reason and state.value in tr.reason
+
+
+def test_goals_advance_then_complete_after_the_last() -> None:
+    # GIVEN a running mission of 3 goals
+    status = transition(transition(MissionStatus(S.IDLE, 0, 3), E.ARM).status, E.START).status
+    assert (status.state, status.goal_index) == (S.RUNNING, 0)
+    # WHEN each goal is reached
+    seen = []
+    for _ in range(3):
+        status = transition(status, E.GOAL_REACHED).status
+        seen.append((status.state, status.goal_index))
+    # THEN the index advances and the mission completes after the last goal
+    assert seen == [(S.RUNNING, 1), (S.RUNNING, 2), (S.COMPLETE, 3)]
+    # and a further goal_reached is rejected
+    assert not transition(status, E.GOAL_REACHED).accepted
+
+
+@pytest.mark.parametrize("event", [E.ARM, E.START])
+def test_no_goals_cannot_arm_or_start(event: MissionEvent) -> None:
+    state = S.IDLE if event is E.ARM else S.ARMED
+    tr = transition(MissionStatus(state, 0, 0), event)
+    assert not tr.accepted and "no goals" in tr.reason
+
+
+@pytest.mark.parametrize("state", [S.RUNNING, S.HOLD, S.ARMED])
+def test_mission_replaced_restarts_at_goal_zero(state: MissionState) -> None:
+    tr = transition(MissionStatus(state, 2, 3), E.MISSION_REPLACED, goal_count=5)
+    assert tr.accepted and (tr.status.goal_index, tr.status.goal_count) == (0, 5)
+
+
+def test_mission_replaced_needs_a_goal_count() -> None:
+    assert not transition(MissionStatus(S.IDLE), E.MISSION_REPLACED).accepted
+    assert not transition(MissionStatus(S.RUNNING, 0, 2), E.MISSION_REPLACED, goal_count=0).accepted
+
+
+def test_resume_keeps_the_goal_index() -> None:
+    status = MissionStatus(S.HOLD, 2, 4)
+    assert transition(status, E.RESUME).status.goal_index == 2
+
+
+def test_failsafe_reason_is_kept() -> None:
+    tr = transition(MissionStatus(S.RUNNING, 0, 1), E.FAILSAFE, detail="depth 12.0 m beyond limit")
+    assert tr.status.state is S.ABORT and "depth 12.0 m" in tr.status.reason
+
+
+def test_mission_params() -> None:
+    assert from_table(MissionParams, {}, "[mission]") == MissionParams()
+    with pytest.raises(ConfigError):
+        from_table(MissionParams, {"turning_radius_m": 0.0}, "[mission]")
