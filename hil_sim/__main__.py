@@ -9,8 +9,10 @@ import sys
 DESCRIPTION = """\
 The ISiMI100 hardware-in-the-loop bench.
 
-  demo       the main demonstration (see the README).
+  demo       the paper's straight line and turn in closed loop (bench + firmware as real processes in
+             lock-step), errors next to the paper's, figures in out/demo/.
   bus-demo   two real processes exchange E2E-protected frames through the bench hub; prints a table.
+  scenario   one of the paper's scenarios end to end with metrics (--json, --plot DIR).
   run        host the bench CAN hub and fly the 6-DOF model: reads FIN_CMD / PROP_CMD (and SYNC_ACK in
              lock-step) from the bus; publishes AHRS, depth, DVL and position-fix frames at their sensor
              rates, FIN_STATUS / PROP_STATUS every control period, and a heartbeat per node at 1 Hz.
@@ -35,12 +37,14 @@ def main(argv: list[str] | None = None) -> int:
         return bench_main(argv)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    if args.command in ("demo", "bus-demo"):
+    if args.command == "demo":
+        from hil_sim.demo import main as demo_main
+
+        return demo_main()
+    if args.command == "bus-demo":
         from hil_sim.busdemo import print_bus_demo, run_bus_demo
 
-        count = getattr(args, "count", 200)
-        rate = getattr(args, "rate", 100.0)
-        result = run_bus_demo(count=count, rate_hz=rate)
+        result = run_bus_demo(count=args.count, rate_hz=args.rate)
         print_bus_demo(result)
         return 0 if result.ok else 1
     return 2

@@ -257,6 +257,8 @@ class BenchResult:
     failsafe_timeouts: int = 0
     rejected: dict[str, int] = field(default_factory=dict)
     stop_reason: str = ""
+    run_wall_time_s: float = 0.0  # wall time from the start of simulated time to the end
+    _t_start_wall: float = 0.0
 
 
 class Bench:
@@ -297,7 +299,8 @@ class Bench:
             self.applied = result.applied_command
         return cmd
 
-    def status_frames(self, t_s: float) -> list[m.BusMessage]:
+    def status_frames(self, t_s: float, rejected_frames: int = 0) -> list[m.BusMessage]:
+        """FIN_STATUS and PROP_STATUS; ``rejected_frames``: frames the bench's receiver dropped so far."""
         a = self.state.actuators
         lim = 0.5236
         wd = self.node.watchdog
@@ -315,7 +318,7 @@ class Bench:
                 self.node.prop is not None and self.node.prop.mode is m.ActuatorMode.ARMED,
                 wd.failsafe,
                 False,
-                0,
+                min(rejected_frames, 65535),
                 t_s,
             ),
         ]
@@ -387,6 +390,8 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
             _run_realtime(bench, port, cfg, stop, writer, result)
     finally:
         result.wall_time_s = time.monotonic() - t_wall0
+        if result._t_start_wall:
+            result.run_wall_time_s = time.monotonic() - result._t_start_wall
         result.sim_time_s = bench.state.t_s
         result.failsafe_timeouts = bench.node.watchdog.timeouts
         result.rejected = dict(port.receiver.rejected)
@@ -431,7 +436,7 @@ def _run_lockstep(
         for meas in bench.pending if started else bench.idle_measurements():
             msgs.extend(sensor_frames(meas))
         bench.pending.clear()
-        msgs.extend(bench.status_frames(t))
+        msgs.extend(bench.status_frames(t, port.receiver.rejected_total))
         if t - last_hb_s >= 1.0 - 1e-9 or (not started and tick % round(1.0 / period) == 0):
             msgs.extend(_heartbeats(t, bench.node.watchdog.failsafe))
             last_hb_s = t
@@ -443,21 +448,23 @@ def _run_lockstep(
         resend_at = now + 0.5
         while True:
             msg = port.recv(0.05)
+            # Checked on every frame, not only on silence: an onboard that streams commands without echoing
+            # (e.g. one running in real time) must still meet the deadline, and a stop must still stop.
+            if stop.is_set():
+                return
+            now = time.monotonic()
+            if not started and now > resend_at:
+                # Before the start the onboard may not be connected yet: offer the same tick again
+                # (the onboard answers a repeated tick without ticking twice). Not on the clock.
+                port.send(sync)
+                resend_at = now + 0.5
+                deadline = now + cfg.bench.echo_timeout_s
+            elif now > deadline:
+                raise EchoTimeout(
+                    f"no SYNC_ACK for tick {tick} within {cfg.bench.echo_timeout_s:g} s (is auv-onboard "
+                    "running in lock-step on this bus?)"
+                )
             if msg is None:
-                if stop.is_set():
-                    return
-                now = time.monotonic()
-                if not started and now > resend_at:
-                    # Before the start the onboard may not be connected yet: offer the same tick again
-                    # (the onboard answers a repeated tick without ticking twice). Not on the clock.
-                    port.send(sync)
-                    resend_at = now + 0.5
-                    deadline = now + cfg.bench.echo_timeout_s
-                elif now > deadline:
-                    raise EchoTimeout(
-                        f"no SYNC_ACK for tick {tick} within {cfg.bench.echo_timeout_s:g} s (is auv-onboard "
-                        "running in lock-step on this bus?)"
-                    )
                 continue
             if isinstance(msg, m.SyncAck):
                 if msg.tick == tick & 0x0FFFFFFF:
@@ -467,6 +474,7 @@ def _run_lockstep(
             bench.node.take(msg)
         if not result.started and result.onboard_state == "RUNNING":
             result.started = True
+            result._t_start_wall = time.monotonic()
             log.info("onboard mission running: simulated time starts")
         cmd = bench.period(integrate=result.started)
         tick += 1
@@ -494,6 +502,7 @@ def _run_realtime(
     stop_at: list[float] = []
     last_hb_s = -math.inf
     result.started = True
+    result._t_start_wall = time.monotonic()
     while not stop.is_set():
         for msg in port.drain():
             result.onboard_state = _onboard_state(msg, result.onboard_state)
@@ -504,7 +513,7 @@ def _run_realtime(
         for meas in bench.pending:
             msgs.extend(sensor_frames(meas))
         bench.pending.clear()
-        msgs.extend(bench.status_frames(t))
+        msgs.extend(bench.status_frames(t, port.receiver.rejected_total))
         if t - last_hb_s >= 1.0 - 1e-9:
             msgs.extend(_heartbeats(t, bench.node.watchdog.failsafe))
             last_hb_s = t
@@ -621,7 +630,8 @@ def run_main(argv: list[str]) -> int:
         result.wall_time_s,
     )
     if args.summary_json:
-        Path(args.summary_json).write_text(json.dumps(result.__dict__, indent=2))
+        summary = {k: v for k, v in result.__dict__.items() if not k.startswith("_")}
+        Path(args.summary_json).write_text(json.dumps(summary, indent=2))
     return code
 
 

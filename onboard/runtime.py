@@ -7,6 +7,7 @@ a bad one; then waits for the bus (one log line every few seconds) and runs unti
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import signal
 import sys
@@ -88,6 +89,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--state-dir", help="MAVLink state directory (missions, parameters)")
     parser.add_argument("--no-mavlink", action="store_true", help="run without the MAVLink endpoint")
+    parser.add_argument("--summary-json", help="write the loop's counters to this file at exit")
     parser.add_argument("--log-level", default="INFO", help="logging level (default INFO)")
     return parser
 
@@ -117,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, _stop)
     signal.signal(signal.SIGTERM, _stop)
     try:
-        return run(cfg, mission, args.autostart, stop, mavlink_on=not args.no_mavlink)
+        return run(
+            cfg, mission, args.autostart, stop, mavlink_on=not args.no_mavlink, summary_json=args.summary_json
+        )
     except (ConfigError, BusUnavailable) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ConfigError) else 1
@@ -129,6 +133,7 @@ def run(
     autostart: bool,
     stop: threading.Event,
     mavlink_on: bool = True,
+    summary_json: str | None = None,
 ) -> int:
     """Open the bus, build the loop and run it until ``stop`` is set."""
     autopilot = Autopilot(cfg)
@@ -183,7 +188,32 @@ def run(
             port.receiver.rejected_total,
             dict(port.receiver.rejected),
         )
+        if summary_json:
+            Path(summary_json).write_text(json.dumps(_summary(loop, autopilot), indent=2))
     return code
+
+
+def _summary(loop: ControlLoop, autopilot: Autopilot) -> dict[str, Any]:
+    compute = sorted(loop.stats.compute_s)
+    late = sorted(loop.stats.lateness_s)
+
+    def pct(values: list[float], q: float) -> float:
+        return values[min(len(values) - 1, int(q * len(values)))] * 1e6 if values else float("nan")
+
+    return {
+        "ticks": loop.stats.ticks,
+        "overruns": loop.stats.overruns,
+        "missed_deadlines": loop.stats.missed_deadlines,
+        "encode_errors": loop.stats.encode_errors,
+        "frames_rejected": dict(loop.port.receiver.rejected),
+        "tick_compute_p50_us": pct(compute, 0.5),
+        "tick_compute_p99_us": pct(compute, 0.99),
+        "lateness_p50_us": pct(late, 0.5),
+        "lateness_p99_us": pct(late, 0.99),
+        "final_state": autopilot.status.state.name,
+        "goals_reached": autopilot.goals_reached,
+        "fixes_rejected": autopilot.nav_state.fixes_rejected,
+    }
 
 
 def _start_link(autopilot: Autopilot, mission: Mission | None) -> Any:

@@ -57,6 +57,16 @@ class GuidanceParams:
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
     - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
     - ``search_back_m``, ``search_ahead_m``: window of the projection around the previous one, m.
+    - ``reference_accel_mps2``: ``track`` only: the reference starts at rest and speeds up at this rate to
+      ``speed_mps`` (0 = the paper's uniform speed from the first instant, which a vehicle starting at rest
+      cannot follow: the along-track error grows at the start, paper Fig. 10).
+    - ``lateral``: ``track`` only: ``"reference"`` (the paper: cross-track and yaw errors at the moving
+      reference point) or ``"path"`` (at the vehicle's projection on the path, with a LOS heading
+      correction over ``lookahead_m``; the reference point then only sets the along-track error). When the
+      vehicle lags, "reference" makes it cut corners towards a point already around the bend.
+    - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
+      many seconds (at the reference speed) ahead of the projection, so the rudder moves before the arc
+      begins (the fins and the yaw dynamics lag by a fraction of a second).
     """
 
     mode: GuidanceMode = "track"
@@ -69,6 +79,9 @@ class GuidanceParams:
     arrival_yaw_tol_deg: float = 10.0
     search_back_m: float = 2.0
     search_ahead_m: float = 10.0
+    reference_accel_mps2: float = 0.0
+    lateral: Literal["reference", "path"] = "reference"
+    curvature_preview_s: float = 0.0
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
 
@@ -81,6 +94,8 @@ class GuidanceParams:
         require(self.arrival_position_tol_m > 0.0, "arrival_position_tol_m must be > 0")
         require(0.0 < self.arrival_yaw_tol_deg <= 180.0, "arrival_yaw_tol_deg must be in (0, 180]")
         require(self.search_back_m >= 0.0 and self.search_ahead_m > 0.0, "search window must be positive")
+        require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
+        require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
 
@@ -99,6 +114,7 @@ class GuidanceState:
     s_proj_m: float | None = None
     ilos_int_m: float = 0.0
     arrived: bool = False
+    ref_speed_mps: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -186,10 +202,13 @@ def step(
     los_corr = 0.0
     ilos_int = state.ilos_int_m
     s_ref = state.s_ref_m
+    ref_speed = speed
     if params.mode == "track":
         if complete:
             s_ref = max(s_ref, s_proj)
-        s_ref += speed * dt_s
+        if params.reference_accel_mps2 > 0.0:
+            ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
+        s_ref += ref_speed * dt_s
         ref = sample_extended(path, s_ref)
     else:
         s_ref = s_proj
@@ -202,7 +221,15 @@ def step(
         e_along = e_cross = cross_track = math.nan
 
     yaw_d = ref.yaw_rad
-    if params.mode != "track":
+    curvature = ref.curvature_1pm
+    if params.mode == "track" and params.lateral == "path" and nav_ok:
+        # Lateral errors at the vehicle's projection; the reference point sets only the along-track error.
+        e_along = s_ref - s_proj
+        e_cross = -cross_track
+        los_corr = math.atan(e_cross / params.lookahead_m)
+        yaw_d = wrap_pi(proj.yaw_rad + los_corr)
+        curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
+    elif params.mode != "track":
         e_along = 0.0
         delta = params.lookahead_m
         sigma = params.ilos_gain if params.mode == "ilos" else 0.0
@@ -235,13 +262,13 @@ def step(
         depth_m=ref.depth_m,
         yaw_rad=yaw_d,
         pitch_rad=ref.pitch_rad,
-        x_rate_mps=speed * math.cos(ref.yaw_rad),
-        y_rate_mps=speed * math.sin(ref.yaw_rad),
-        depth_rate_mps=speed * slope,
-        yaw_rate_radps=speed * ref.curvature_1pm,
+        x_rate_mps=ref_speed * math.cos(ref.yaw_rad),
+        y_rate_mps=ref_speed * math.sin(ref.yaw_rad),
+        depth_rate_mps=ref_speed * slope,
+        yaw_rate_radps=ref_speed * curvature,
         pitch_rate_radps=0.0,
-        speed_mps=speed,
-        curvature_1pm=ref.curvature_1pm,
+        speed_mps=ref_speed,
+        curvature_1pm=curvature,
         along_track_m=s_proj,
         cross_track_m=cross_track,
         distance_to_end_m=dist_end,
@@ -261,5 +288,6 @@ def step(
         s_proj_m=s_proj if nav_ok else state.s_proj_m,
         ilos_int_m=ilos_int,
         arrived=arrived,
+        ref_speed_mps=ref_speed,
     )
     return reference, new_state, GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int)

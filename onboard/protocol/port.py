@@ -84,6 +84,7 @@ class BusPort:
             self.bus.shutdown()
         except OSError as exc:  # the other end already went away (e.g. the bench hub stopped)
             log.debug("bus shutdown: %s", exc)
+            self.bus._is_shutdown = True  # python-can would otherwise retry (and fail again) in __del__
 
 
 __all__ = ["BusPort", "EncodeError"]

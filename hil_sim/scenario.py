@@ -1,0 +1,429 @@
+"""``auv-hil scenario NAME``: the paper's experiments end to end over real processes, with metrics.
+
+The runner starts the bench (``auv-hil run --mode lockstep``) and the firmware (``auv-onboard run`` in
+lock-step) as real processes on a free port of their own, with a temporary state directory (so it never
+meets another bench or a persisted mission). The vehicle starts at rest at P0 at 1 m depth and holds 1 m
+(the basin), ``basin`` sensor profile; the time limit is twice the nominal duration. Metrics come from the
+simulator's truth (the CSV named ``truth_log``) against the planned path, which the runner gets from
+``auv-onboard plan --config ... --json --sample-step`` (the same onboard configuration the vehicle flies
+with), so ``hil_sim`` still imports only ``onboard.protocol``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from onboard.protocol.cli import join_negative_values
+from onboard.protocol.conventions import wrap_pi
+
+DEPTH_M = 1.0
+# The paper's numbers (section 5 simulation, section 6 basin experiment), for the comparison table.
+PAPER_RESULTS = {
+    "paper-straight": {"simulation": "0.13 m at goal", "experiment": "< 0.05 m at goal (P_f = [10, 0, 0])"},
+    "paper-turn": {"simulation": "0.2 m (x), 0.4 m (y) at goal", "experiment": "final y error < 0.1 m"},
+    "paper-plan": {"simulation": "path planning only (Fig. 5)", "experiment": "-"},
+}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    start: tuple[float, float, float]  # x_m, y_m, yaw_deg
+    goal: tuple[float, float, float]
+    description: str
+
+
+SCENARIOS = {
+    s.name: s
+    for s in (
+        Scenario("paper-straight", (-13.0, 0.0, 0.0), (15.0, 0.0, 0.0), "straight line (paper Fig. 7, 8)"),
+        Scenario("paper-turn", (-15.0, 5.0, 0.0), (10.0, -2.0, 270.0), "added turning motion (Fig. 9, 10)"),
+        Scenario("paper-plan", (0.0, 0.0, 90.0), (30.0, 20.0, 0.0), "the planning example (Fig. 5)"),
+    )
+}
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _onboard_config_path() -> str:
+    """The onboard configuration file the vehicle flies with (found through the installed package)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("onboard")
+    if spec is None or spec.origin is None:
+        raise RuntimeError("the onboard package is not installed")
+    return str(Path(spec.origin).parent / "config" / "onboard.toml")
+
+
+def planned_path(sc: Scenario, config: str, step_m: float = 0.05) -> dict[str, Any]:
+    """The planned path as ``auv-onboard plan --json`` prints it (a subprocess: no onboard import here)."""
+    fmt = ",".join
+    cmd = [
+        sys.executable,
+        "-m",
+        "onboard",
+        "plan",
+        "--config",
+        config,
+        f"--start={fmt(str(v) for v in sc.start)}",
+        f"--goal={fmt(str(v) for v in sc.goal)}",
+        f"--depth={DEPTH_M},{DEPTH_M}",
+        "--json",
+        "--sample-step",
+        str(step_m),
+    ]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=60, check=False)
+    if out.returncode != 0:
+        raise RuntimeError(f"auv-onboard plan failed: {out.stderr.strip()}")
+    result: dict[str, Any] = json.loads(out.stdout)
+    return result
+
+
+# --- metrics (pure) --------------------------------------------------------------------------------
+def read_truth(path: str | Path) -> list[dict[str, float]]:
+    with open(path, newline="") as f:
+        rows = []
+        for r in csv.DictReader(f):
+            rows.append({k: float(v) for k, v in r.items() if k != "onboard_state"})
+        return rows
+
+
+def _project(polyline: list[tuple[float, float]], x: float, y: float, lo: int, hi: int) -> tuple[float, int]:
+    """Distance from (x, y) to the polyline segments lo..hi, and the index of the nearest segment."""
+    best, best_i = math.inf, lo
+    for i in range(max(lo, 0), min(hi, len(polyline) - 1)):
+        (x0, y0), (x1, y1) = polyline[i], polyline[i + 1]
+        dx, dy = x1 - x0, y1 - y0
+        seg2 = dx * dx + dy * dy
+        t = 0.0 if seg2 == 0.0 else max(0.0, min(1.0, ((x - x0) * dx + (y - y0) * dy) / seg2))
+        d = math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
+        if d < best:
+            best, best_i = d, i
+    return best, best_i
+
+
+def compute_metrics(
+    truth: list[dict[str, float]], samples: list[list[float]], goal: tuple[float, float, float]
+) -> dict[str, Any]:
+    """Arrival and tracking metrics from the truth rows and the planned polyline ([[x, y, yaw_deg], ...]).
+
+    Arrival: the first row whose along-track coordinate reaches the end of the path (the vehicle crosses
+    the line through the goal perpendicular to the arrival heading, near the end of the path). The final
+    errors are measured there, or at the last row (then ``completed`` is false). Cross-track: the distance
+    from the truth to the planned polyline, up to arrival.
+    """
+    poly = [(p[0], p[1]) for p in samples]
+    gx, gy, gyaw_deg = goal
+    gyaw = math.radians(gyaw_deg)
+    ux, uy = math.cos(gyaw), math.sin(gyaw)
+    idx = 0
+    cross: list[float] = []
+    arrival: dict[str, float] | None = None
+    near_end = max(len(poly) - 2, 0)
+    prev: dict[str, float] | None = None
+    prev_along = -math.inf
+    for row in truth:
+        along_goal = (row["x_m"] - gx) * ux + (row["y_m"] - gy) * uy
+        _, idx = _project(poly, row["x_m"], row["y_m"], idx - 20, idx + 200)
+        if idx >= near_end - 20 and along_goal >= 0.0:
+            # Interpolate to the crossing of the goal line, so the period's sampling adds no error.
+            arrival = row
+            if prev is not None and along_goal > prev_along:
+                w = -prev_along / (along_goal - prev_along)
+                arrival = {k: prev[k] + w * (row[k] - prev[k]) for k in row if k != "yaw_deg"}
+                arrival["yaw_deg"] = prev["yaw_deg"] + w * math.degrees(
+                    wrap_pi(math.radians(row["yaw_deg"] - prev["yaw_deg"]))
+                )
+            cross.append(_project(poly, arrival["x_m"], arrival["y_m"], idx - 20, idx + 200)[0])
+            break
+        cross.append(_project(poly, row["x_m"], row["y_m"], idx - 20, idx + 200)[0])
+        prev, prev_along = row, along_goal
+    final = arrival if arrival is not None else (truth[-1] if truth else None)
+    if final is None:
+        raise ValueError("empty truth log")
+    ex, ey = gx - final["x_m"], gy - final["y_m"]
+    return {
+        "completed": arrival is not None,
+        "arrival_time_s": final["t_s"],
+        "final_position_error_m": math.hypot(ex, ey),
+        "final_x_error_m": ex,
+        "final_y_error_m": ey,
+        "final_depth_error_m": DEPTH_M - final["depth_m"],
+        "final_yaw_error_deg": math.degrees(wrap_pi(gyaw - math.radians(final["yaw_deg"]))),
+        "max_cross_track_m": max(cross) if cross else math.nan,
+        "rms_cross_track_m": math.sqrt(sum(c * c for c in cross) / len(cross)) if cross else math.nan,
+    }
+
+
+# --- running ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RunOptions:
+    controller: str = "improved"
+    guidance: str = "track"
+    current: tuple[float, float] = (0.0, 0.0)
+    seed: int = 0
+    workdir: str | None = None
+    onboard_sets: tuple[str, ...] = ()
+    wall_timeout_s: float = 300.0
+
+
+def _profile_sets(opts: RunOptions) -> tuple[str, ...]:
+    """Onboard overrides: the paper profile flies the paper's guidance too (reference-point errors, a
+    reference moving at uniform speed from the first instant); then the caller's own ``--set`` values."""
+    faithful = ('guidance.lateral="reference"', "guidance.reference_accel_mps2=0.0")
+    return (faithful if opts.controller == "paper" else ()) + opts.onboard_sets
+
+
+def _stop(proc: subprocess.Popen[Any] | None) -> None:
+    if proc is None or proc.poll() is not None:
+        return
+    proc.terminate()
+    try:
+        proc.wait(5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)
+
+
+def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
+    """Run one scenario over real processes and return the metrics object (see the module docstring)."""
+    work = Path(opts.workdir or tempfile.mkdtemp(prefix=f"auv-{sc.name}-"))
+    work.mkdir(parents=True, exist_ok=True)
+    config = _onboard_config_path()
+    path = planned_path(sc, config)
+    speed = 1.0  # [guidance] speed_mps of the default onboard configuration
+    limit_s = round(2.0 * path["length_m"] / speed + 10.0, 1)
+    port = free_port()
+    channel = f"ws://127.0.0.1:{port}/"
+    truth = work / "truth.csv"
+    mission = work / "mission.yaml"
+    gx, gy, gyaw = sc.goal
+    mission.write_text(f"goals:\n  - {{x_m: {gx}, y_m: {gy}, depth_m: {DEPTH_M}, yaw_deg: {gyaw}}}\n")
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    hil_cmd = [
+        sys.executable,
+        "-m",
+        "hil_sim",
+        "run",
+        "--mode=lockstep",
+        f"--channel={channel}",
+        f"--start={sc.start[0]},{sc.start[1]},{DEPTH_M},{sc.start[2]}",
+        f"--truth-log={truth}",
+        "--stop-on=COMPLETE",
+        "--stop-on=ABORT",
+        "--stop-delay=2",
+        f"--duration={limit_s}",
+        f"--seed={opts.seed}",
+        f"--current={opts.current[0]},{opts.current[1]}",
+        "--profile=basin",
+        f"--summary-json={work / 'bench.json'}",
+    ]
+    ob_cmd = [
+        sys.executable,
+        "-m",
+        "onboard",
+        "run",
+        "--config",
+        config,
+        "--set",
+        "loop.time_source=lockstep",
+        "--set",
+        f'bus.channel="{channel}"',
+        "--set",
+        f'control.profile="{opts.controller}"',
+        "--set",
+        f'guidance.mode="{opts.guidance}"',
+        "--set",
+        f'loop.telemetry_csv="{work / "telemetry.csv"}"',
+        *(x for s in _profile_sets(opts) for x in ("--set", s)),
+        "--state-dir",
+        str(work / "state"),
+        "--mission",
+        str(mission),
+        "--autostart",
+        "--no-mavlink",
+        "--summary-json",
+        str(work / "onboard.json"),
+    ]
+    hil = onboard = None
+    t0 = time.monotonic()
+    with open(work / "hil.log", "w") as hil_log, open(work / "onboard.log", "w") as ob_log:
+        try:
+            hil = subprocess.Popen(hil_cmd, stdout=hil_log, stderr=subprocess.STDOUT, env=env)
+            onboard = subprocess.Popen(ob_cmd, stdout=ob_log, stderr=subprocess.STDOUT, env=env)
+            try:
+                hil_code = hil.wait(opts.wall_timeout_s)
+            except subprocess.TimeoutExpired:
+                hil_code = -1
+        finally:
+            _stop(onboard)
+            _stop(hil)
+    wall = time.monotonic() - t0
+    bench = json.loads((work / "bench.json").read_text()) if (work / "bench.json").exists() else {}
+    if hil_code != 0 or not truth.exists():
+        log_tail = (work / "hil.log").read_text()[-800:]
+        raise RuntimeError(f"the bench failed (exit {hil_code}); see {work}/hil.log:\n{log_tail}")
+    onboard_summary = (
+        json.loads((work / "onboard.json").read_text()) if (work / "onboard.json").exists() else {}
+    )
+    metrics = compute_metrics(read_truth(truth), path["samples"], sc.goal)
+    sim_time = float(bench.get("sim_time_s", 0.0))
+    run_wall = float(bench.get("run_wall_time_s", 0.0)) or wall
+    return {
+        "scenario": sc.name,
+        "controller": opts.controller,
+        "guidance": opts.guidance,
+        "current_mps_deg": list(opts.current),
+        "seed": opts.seed,
+        **metrics,
+        "sim_time_s": sim_time,
+        "time_limit_s": limit_s,
+        "wall_time_s": round(wall, 3),
+        "realtime_factor": sim_time / run_wall if run_wall > 0 else math.nan,
+        "ticks": int(onboard_summary.get("ticks", bench.get("ticks", 0))),
+        "overruns": int(onboard_summary.get("overruns", 0)),
+        "frames_rejected": sum(onboard_summary.get("frames_rejected", {}).values())
+        + sum(bench.get("rejected", {}).values()),
+        "final_state": onboard_summary.get("final_state", bench.get("onboard_state", "")),
+        "path_word": path["word"],
+        "path_length_m": path["length_m"],
+        "truth_log": str(truth),
+        "telemetry_log": str(work / "telemetry.csv"),
+        "planned_path": path["samples"],
+    }
+
+
+# --- figures ---------------------------------------------------------------------------------------
+def plot_scenario(result: dict[str, Any], out_dir: str | Path) -> list[str]:
+    """The paper's figures: path vs reference (Fig. 7 / 9) and x / y error against time (Fig. 8 / 10)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    truth = read_truth(result["truth_log"])
+    ref = [(p[0], p[1]) for p in result["planned_path"]]
+    name = result["scenario"]
+    tag = f"{name}-{result['controller']}-{result['guidance']}"
+    files = []
+    fig, ax = plt.subplots(figsize=(7, 6))
+    # NED: x north (up the page), y east (to the right).
+    ax.plot([p[1] for p in ref], [p[0] for p in ref], "r-", lw=2, label="reference path")
+    ax.plot([r["y_m"] for r in truth], [r["x_m"] for r in truth], "b:", lw=2, label="vehicle (truth)")
+    ax.set_xlabel("y east (m)")
+    ax.set_ylabel("x north (m)")
+    ax.set_aspect("equal")
+    ax.grid(True)
+    ax.legend()
+    ax.set_title(f"{name}: path tracking ({result['controller']}, {result['guidance']})")
+    files.append(str(out / f"{tag}-path.png"))
+    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+    tel_path = Path(result["telemetry_log"])
+    if tel_path.exists():
+        with tel_path.open(newline="") as f:
+            tel = {round(float(r["t_s"]), 3): r for r in csv.DictReader(f)}
+        t, ex, ey = [], [], []
+        for r in truth:
+            row = tel.get(round(r["t_s"], 3))
+            if row is None or row["ref_x_m"] in ("", "nan"):
+                continue
+            t.append(r["t_s"])
+            ex.append(float(row["ref_x_m"]) - r["x_m"])
+            ey.append(float(row["ref_y_m"]) - r["y_m"])
+        fig, ax = plt.subplots(figsize=(8, 4))
+        ax.plot(t, ex, "b-", label="x error (reference - vehicle)")
+        ax.plot(t, ey, "r--", label="y error (reference - vehicle)")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("error (m)")
+        ax.grid(True)
+        ax.legend()
+        ax.set_title(f"{name}: tracking error against time")
+        files.append(str(out / f"{tag}-error.png"))
+        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
+    return files
+
+
+def print_result(result: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{result['scenario']} ({result['controller']}, {result['guidance']})")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, value in result.items():
+        if key in ("planned_path",):
+            continue
+        table.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(
+        prog="auv-hil scenario",
+        description=(
+            "Run one of the paper's scenarios end to end: the bench and auv-onboard as real processes over "
+            "the bench bus in lock-step, on a free port and a temporary state directory; metrics from the "
+            "simulator's truth against the planned path."
+        ),
+    )
+    parser.add_argument("name", choices=sorted(SCENARIOS))
+    parser.add_argument("--controller", choices=["paper", "improved"], default="improved")
+    parser.add_argument("--guidance", choices=["track", "los", "ilos"], default="track")
+    parser.add_argument("--current", help="SPEED_MPS,DIR_DEG: the direction the water flows towards (NED)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--plot", metavar="DIR", help="write the paper's figures (PNG) here")
+    parser.add_argument("--workdir", help="keep logs here (default: a new temporary directory)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="TABLE.KEY=VALUE",
+        help="passed to auv-onboard run --set (an onboard configuration override)",
+    )
+    args = parser.parse_args(join_negative_values(argv, ("--current",)))
+    current = (0.0, 0.0)
+    if args.current:
+        try:
+            speed, direction = (float(v) for v in args.current.split(","))
+        except ValueError:
+            print(
+                f"auv-hil scenario: --current: expected SPEED_MPS,DIR_DEG, got {args.current!r}",
+                file=sys.stderr,
+            )
+            return 2
+        current = (speed, direction)
+    opts = RunOptions(args.controller, args.guidance, current, args.seed, args.workdir, tuple(args.set))
+    try:
+        result = run_scenario(SCENARIOS[args.name], opts)
+    except RuntimeError as exc:
+        print(f"auv-hil scenario: {exc}", file=sys.stderr)
+        return 1
+    if args.plot:
+        result["figures"] = plot_scenario(result, args.plot)
+    if args.json:
+        print(json.dumps({k: v for k, v in result.items() if k != "planned_path"}))
+    else:
+        print_result(result)
+    return 0

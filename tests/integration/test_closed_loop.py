@@ -1,0 +1,55 @@
+"""Closed loop in one process (onboard loop + bench on a `virtual` bus, lock-step): the paper's scenarios.
+
+The limits are regression limits: about 1.5-2x what the improved controller achieved when they were set
+(recorded next to each), so a change that degrades tracking fails here. The issue's goals (paper-turn
+<= 0.1 m at the goal, <= 0.3 m cross-track, yaw within 5 deg) are reported by ``auv-hil scenario`` and
+the demo, not asserted beyond these limits.
+"""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+
+from tests.integration.closed_loop import fly
+
+# scenario: (max final error m, max cross-track m, max |final yaw error| deg); achieved in brackets
+IMPROVED_LIMITS = {
+    "paper-straight": (0.03, 0.08, 2.0),  # achieved 0.008 m, 0.038 m, 0.5 deg
+    "paper-turn": (0.10, 0.30, 6.0),  # achieved 0.042 m, 0.204 m, 3.4 deg
+    "paper-plan": (0.20, 0.80, 5.0),  # achieved 0.104 m, 0.629 m (the turn from rest at the start), 2.1 deg
+}
+
+
+@pytest.mark.parametrize("name", sorted(IMPROVED_LIMITS))
+def test_improved_controller_flies_the_paper_scenarios(name: str, tmp_path) -> None:
+    # GIVEN the default onboard configuration (improved profile, track guidance) and the basin sensors
+    m = fly(name, tmp_path)
+    # THEN the vehicle arrives and completes, within the regression limits, with no frame rejected
+    final_max, cross_max, yaw_max = IMPROVED_LIMITS[name]
+    assert m["completed"], m
+    assert m["final_state"] == "COMPLETE"
+    assert m["final_position_error_m"] <= final_max, m
+    assert m["max_cross_track_m"] <= cross_max, m
+    assert abs(m["final_yaw_error_deg"]) <= yaw_max, m
+    assert m["rejected"] == {}
+
+
+def test_paper_profile_completes_the_straight_line(tmp_path) -> None:
+    # The paper's gains (|Kp| = 2, |Kd| = 4) and its uniform-speed reference: the straight line completes
+    # (achieved 0.31 m at the goal); on the turn it does not (it circles: see the closing note).
+    m = fly("paper-straight", tmp_path, controller="paper")
+    assert m["completed"], m
+    assert m["final_position_error_m"] <= 0.6, m
+
+
+def test_same_seed_same_truth_bit_for_bit(tmp_path) -> None:
+    # GIVEN two runs of the same scenario with the same seed, each with its own bus channel
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    a = fly("paper-straight", tmp_path / "a", seed=7)
+    b = fly("paper-straight", tmp_path / "b", seed=7)
+    # THEN the truth logs are identical (no state shared between runs, no wall clock in lock-step)
+    with open(a["truth_log"]) as fa, open(b["truth_log"]) as fb:
+        assert list(csv.reader(fa)) == list(csv.reader(fb))
