@@ -13,6 +13,7 @@ The ISiMI100 hardware-in-the-loop bench.
              lock-step), errors next to the paper's, figures in out/demo/.
   bus-demo   two real processes exchange E2E-protected frames through the bench hub; prints a table.
   scenario   one of the paper's scenarios end to end with metrics (--json, --plot DIR).
+  replay     play a recorded .blf/.asc frame log onto the bench bus (hosts the hub).
   run        host the bench CAN hub and fly the 6-DOF model: reads FIN_CMD / PROP_CMD (and SYNC_ACK in
              lock-step) from the bus; publishes AHRS, depth, DVL and position-fix frames at their sensor
              rates, FIN_STATUS / PROP_STATUS every control period, and a heartbeat per node at 1 Hz.
@@ -31,6 +32,10 @@ def main(argv: list[str] | None = None) -> int:
     bd = sub.add_parser("bus-demo", help="two processes exchange protected frames through the hub")
     bd.add_argument("--count", type=int, default=200, help="SYNC frames to send (default 200)")
     bd.add_argument("--rate", type=float, default=100.0, help="SYNC rate in Hz (default 100)")
+    if argv and argv[0] == "replay":
+        from hil_sim.replay import main as replay_main
+
+        return replay_main(argv[1:])
     if argv and argv[0] in ("run", "scenario"):
         from hil_sim.bench_program import main as bench_main
 

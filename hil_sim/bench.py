@@ -16,6 +16,7 @@ import traceback
 # section name -> module with ``run(quick) -> dict[str, float]``
 SECTIONS = {
     "simulator": "hil_sim.bench_sim",
+    "loop": "hil_sim.bench_lockstep",  # merged by auv-bench into the onboard's loop section
 }
 
 

@@ -1,0 +1,71 @@
+"""`auv-onboard run` as a process: bad configuration is one clear line; a missing bus is waited for."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+pytestmark = pytest.mark.e2e
+
+RUN = [sys.executable, "-m", "onboard", "run", "--no-mavlink"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--set", 'bus.interface="kvaser"'], "must be one of"),
+        (["--set", 'bus.channel="127.0.0.1:54701"'], "malformed remote channel"),
+        (["--set", "nosuch.key=1"], "unknown key nosuch"),
+        (["--set", "loop.rate_hz=500"], "rate_hz must be within 1..200"),
+        (["--mission", "/nonexistent/mission.yaml"], "No such file"),
+        (["--config", "/nonexistent/onboard.toml"], "no such configuration file"),
+    ],
+)
+def test_bad_configuration_exits_2_with_one_line(args: list[str], message: str) -> None:
+    out = subprocess.run([*RUN, *args], capture_output=True, text=True, timeout=30, check=False)
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], out.stderr
+    assert "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("prog", ["onboard", "hil_sim", "groundstation"])
+def test_every_program_has_help(prog: str) -> None:
+    out = subprocess.run([sys.executable, "-m", prog, "--help"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0 and "usage" in out.stdout.lower()
+
+
+def test_onboard_help_says_what_it_reads_sends_and_at_what_rate() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "onboard", "--help"], capture_output=True, text=True, timeout=30
+    )
+    text = out.stdout
+    assert "Reads" in text and "sends" in text and "20 Hz" in text
+
+
+def test_waits_for_a_missing_bus_then_stops_cleanly_on_sigterm() -> None:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # a free port where no hub listens
+    proc = subprocess.Popen(
+        [*RUN, "--set", f'bus.channel="ws://127.0.0.1:{port}/"', "--set", "bus.retry_log_interval_s=0.5"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        time.sleep(2.0)
+        assert proc.poll() is None  # still waiting, not crashed
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0
+    assert "waiting for remote bus" in out
+    assert "Traceback" not in out
