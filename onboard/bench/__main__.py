@@ -1,12 +1,10 @@
-"""``python -m onboard.bench --json PATH [--quick]``: the onboard package's benchmark sections."""
+"""``python -m onboard.bench --json PATH [--quick] [--only SECTION]``: the onboard package's sections."""
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import json
 import sys
-import traceback
+
+from onboard.protocol.cli import run_bench_sections
 
 # section name -> module with ``run(quick) -> dict[str, float]``
 SECTIONS = {
@@ -15,28 +13,5 @@ SECTIONS = {
     "loop": "onboard.bench.loop_bench",
 }
 
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m onboard.bench")
-    parser.add_argument("--json", required=True, help="write the sections here")
-    parser.add_argument("--quick", action="store_true", help="fewer repetitions")
-    parser.add_argument("--only", action="append", help="run only these sections")
-    args = parser.parse_args(argv)
-    result: dict[str, dict[str, float] | dict[str, str]] = {}
-    for name, module in SECTIONS.items():
-        if args.only and name not in args.only:
-            continue
-        try:
-            result[name] = importlib.import_module(module).run(quick=args.quick)
-        except ModuleNotFoundError as exc:
-            result[name] = {"error": f"not available: {exc}"}
-        except Exception as exc:  # a failing section is reported, the others still run
-            traceback.print_exc()
-            result[name] = {"error": repr(exc)}
-    with open(args.json, "w") as f:
-        json.dump(result, f, indent=2)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_bench_sections("python -m onboard.bench", SECTIONS))

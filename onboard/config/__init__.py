@@ -2,7 +2,7 @@
 
 Tables: [bus] (:class:`onboard.protocol.bus.BusConfig`), [loop] (:class:`onboard.loop.LoopConfig`),
 [planner], [nav], [guidance], [control] (with [control.paper], [control.improved], [control.limits]),
-[mission], [failsafe], [mavlink]. Every table is optional and every key has a default; unknown tables or
+[failsafe], [mavlink]. Every table is optional and every key has a default; unknown tables or
 keys and out-of-range values stop start-up with one clear line (:class:`ConfigError`).
 The default file is ``onboard/config/onboard.toml`` (the one the bench and the scenarios fly with).
 """
@@ -18,7 +18,6 @@ from onboard.guidance.guidance import GuidanceParams
 from onboard.loop import LoopConfig
 from onboard.mavlink.config import MavlinkConfig
 from onboard.mission.failsafe import FailsafeParams
-from onboard.mission.state import MissionParams
 from onboard.nav.estimator import NavParams
 from onboard.planner.config import PlannerConfig
 from onboard.protocol.bus import BusConfig
@@ -35,7 +34,6 @@ class OnboardConfig:
     nav: NavParams = field(default_factory=NavParams)
     guidance: GuidanceParams = field(default_factory=GuidanceParams)
     control: ControlParams = field(default_factory=ControlParams)
-    mission: MissionParams = field(default_factory=MissionParams)
     failsafe: FailsafeParams = field(default_factory=FailsafeParams)
     mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
 

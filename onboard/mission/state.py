@@ -28,25 +28,6 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, replace
 
-from onboard.protocol.config import require
-
-
-@dataclass(frozen=True)
-class MissionParams:
-    """The ``[mission]`` table. Every key is optional.
-
-    - ``turning_radius_m``: the planner's turning radius, m: the vehicle's steady-turn radius at 2/3 of the
-      rudder limit. PLACEHOLDER until copied from the simulator's steady-turn table.
-    - ``hold_speed_mps``: speed in HOLD, m/s (0 = propeller off, fins neutral; > 0 = keep heading and depth).
-    """
-
-    turning_radius_m: float = 4.0
-    hold_speed_mps: float = 0.0
-
-    def __post_init__(self) -> None:
-        require(self.turning_radius_m > 0.0, f"turning_radius_m must be > 0, got {self.turning_radius_m}")
-        require(self.hold_speed_mps >= 0.0, f"hold_speed_mps must be >= 0, got {self.hold_speed_mps}")
-
 
 class MissionState(enum.Enum):
     IDLE = "IDLE"

@@ -25,3 +25,36 @@ def join_negative_values(argv: list[str], value_options: Iterable[str]) -> list[
         out.append(tok)
         i += 1
     return out
+
+
+def run_bench_sections(prog: str, sections: dict[str, str], argv: list[str] | None = None) -> int:
+    """The command line of a package's benchmark module (``python -m PKG.bench --json PATH``).
+
+    ``sections`` maps a section name to a module with ``run(quick: bool) -> dict[str, float]``; a section
+    that fails is written as ``{"error": ...}`` and the others still run. ``auv-bench`` merges the files.
+    (groundstation keeps its own copy: the import contract keeps it away from ``onboard``.)
+    """
+    import argparse
+    import importlib
+    import json
+    import traceback
+
+    parser = argparse.ArgumentParser(prog=prog)
+    parser.add_argument("--json", required=True, help="write the sections here")
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions")
+    parser.add_argument("--only", action="append", help="run only these sections")
+    args = parser.parse_args(argv)
+    result: dict[str, dict[str, float] | dict[str, str]] = {}
+    for name, module in sections.items():
+        if args.only and name not in args.only:
+            continue
+        try:
+            result[name] = importlib.import_module(module).run(quick=args.quick)
+        except ModuleNotFoundError as exc:
+            result[name] = {"error": f"not available: {exc}"}
+        except Exception as exc:  # a failing section is reported, the others still run
+            traceback.print_exc()
+            result[name] = {"error": repr(exc)}
+    with open(args.json, "w") as f:
+        json.dump(result, f, indent=2)
+    return 0

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from onboard.mission.state import MissionEvent, MissionParams, MissionState, MissionStatus, transition
-from onboard.protocol.config import ConfigError, from_table
+from onboard.mission.state import MissionEvent, MissionState, MissionStatus, transition
 
 S, E = MissionState, MissionEvent
 
@@ -100,9 +99,3 @@ def test_resume_keeps_the_goal_index() -> None:
 def test_failsafe_reason_is_kept() -> None:
     tr = transition(MissionStatus(S.RUNNING, 0, 1), E.FAILSAFE, detail="depth 12.0 m beyond limit")
     assert tr.status.state is S.ABORT and "depth 12.0 m" in tr.status.reason
-
-
-def test_mission_params() -> None:
-    assert from_table(MissionParams, {}, "[mission]") == MissionParams()
-    with pytest.raises(ConfigError):
-        from_table(MissionParams, {"turning_radius_m": 0.0}, "[mission]")
