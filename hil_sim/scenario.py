@@ -7,6 +7,23 @@ meets another bench or a persisted mission). The vehicle starts at rest at P0 at
 simulator's truth (the CSV named ``truth_log``) against the planned path, which the runner gets from
 ``auv-onboard plan --config ... --json --sample-step`` (the same onboard configuration the vehicle flies
 with), so ``hil_sim`` still imports only ``onboard.protocol``.
+
+How the mission reaches the vehicle (``--upload``):
+
+- ``gcs`` (default): the firmware runs with its MAVLink endpoint on a free UDP port of 127.0.0.1
+  (``udpin``; nothing is sent to 14550 where other ground stations listen) and no start-up mission; the
+  runner then uploads the mission through ``auv-gcs --connect udpout:127.0.0.1:PORT upload FILE``, and sends
+  ``arm`` and ``start``, each as a process of its own (``hil_sim`` never imports ``groundstation``). The
+  vehicle refuses START until its navigation is valid, which it tells the ground station only through its
+  state, so the runner repeats ``start`` until the bench reports that simulated time has started (the bench
+  starts it on the vehicle's ONBOARD_HEARTBEAT RUNNING); a START is never repeated after that, since a
+  START in COMPLETE would fly the mission again. The ground station's .tlog files stay in the work
+  directory (``gcs_tlogs``).
+- ``file``: the fallback: ``auv-onboard run --mission FILE --autostart --no-mavlink``.
+
+The plan starts from the navigation pose at START; with ``gcs`` the vehicle has filtered its (still)
+sensors for a few dozen ticks longer before START than with ``--autostart``, so the metrics of the two
+may differ slightly (for the three scenarios with the default configuration they came out identical).
 """
 
 from __future__ import annotations
@@ -29,6 +46,10 @@ from onboard.protocol.cli import join_negative_values
 from onboard.protocol.conventions import wrap_pi
 
 DEPTH_M = 1.0
+UPLOAD_MODES = ("gcs", "file")
+# The bench's log line when the vehicle reports RUNNING and simulated time starts (hil_sim/bench_program.py).
+BENCH_STARTED_LOG = "simulated time starts"
+GCS_START_TIMEOUT_S = 60.0  # wall time for upload + arm + start (the firmware imports and connects first)
 # The paper's numbers (section 5 simulation, section 6 basin experiment), for the comparison table.
 PAPER_RESULTS = {
     "paper-straight": {"simulation": "0.13 m at goal", "experiment": "< 0.05 m at goal (P_f = [10, 0, 0])"},
@@ -59,6 +80,60 @@ def free_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def mission_yaml(goal: tuple[float, float, float], depth_m: float = DEPTH_M) -> str:
+    """One goal as mission YAML: the format both ``auv-gcs upload`` (groundstation/mission_files.py) and
+    ``auv-onboard run --mission`` (onboard/mission/file.py) read: x_m, y_m, depth_m and yaw_deg."""
+    gx, gy, gyaw = goal
+    return f"goals:\n  - {{x_m: {gx}, y_m: {gy}, depth_m: {depth_m}, yaw_deg: {gyaw}}}\n"
+
+
+def gcs_command(url: str, tlog_dir: str | Path, *args: str, timeout_s: float = 10.0) -> list[str]:
+    """An ``auv-gcs`` invocation (a process: ``hil_sim`` does not import ``groundstation``)."""
+    return [
+        sys.executable,
+        "-m",
+        "groundstation",
+        "--connect",
+        url,
+        "--json",
+        "--tlog-dir",
+        str(tlog_dir),
+        "--timeout",
+        f"{timeout_s:g}",
+        *args,
+    ]
+
+
+def run_gcs(
+    url: str, tlog_dir: str | Path, *args: str, log: Any = None, timeout_s: float = 10.0
+) -> tuple[int, dict[str, Any]]:
+    """Run one ``auv-gcs --json`` command; (exit code, its last JSON line or {}). Output goes to ``log``."""
+    cmd = gcs_command(url, tlog_dir, *args, timeout_s=timeout_s)
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s + 20.0, check=False)
+    except subprocess.TimeoutExpired:
+        if log is not None:
+            log.write(f"$ auv-gcs {' '.join(args)}: no exit within {timeout_s + 20.0:g} s\n")
+        return -1, {}
+    if log is not None:
+        log.write(f"$ auv-gcs {' '.join(args)} -> exit {out.returncode}\n{out.stdout}{out.stderr}")
+        log.flush()
+    data: dict[str, Any] = {}
+    for line in reversed(out.stdout.strip().splitlines()):
+        try:
+            data = json.loads(line)
+            break
+        except ValueError:
+            continue
+    return out.returncode, data
 
 
 def _onboard_config_path() -> str:
@@ -181,6 +256,7 @@ class RunOptions:
     workdir: str | None = None
     onboard_sets: tuple[str, ...] = ()
     wall_timeout_s: float = 300.0
+    upload: str = "gcs"  # "gcs": auv-gcs over MAVLink; "file": auv-onboard --mission --autostart
 
 
 def _profile_sets(opts: RunOptions) -> tuple[str, ...]:
@@ -188,6 +264,78 @@ def _profile_sets(opts: RunOptions) -> tuple[str, ...]:
     reference moving at uniform speed from the first instant); then the caller's own ``--set`` values."""
     faithful = ('guidance.lateral="reference"', "guidance.reference_accel_mps2=0.0")
     return (faithful if opts.controller == "paper" else ()) + opts.onboard_sets
+
+
+def _bench_started(hil: subprocess.Popen[Any], hil_log: Path) -> bool:
+    """True once the bench has started simulated time (or has ended: nothing left to start)."""
+    if hil.poll() is not None:
+        return True
+    try:
+        return BENCH_STARTED_LOG in hil_log.read_text(errors="replace")
+    except OSError:
+        return False
+
+
+def upload_and_start(
+    url: str,
+    mission: Path,
+    work: Path,
+    hil: subprocess.Popen[Any],
+    hil_log: Path,
+    timeout_s: float = GCS_START_TIMEOUT_S,
+) -> dict[str, Any]:
+    """``auv-gcs upload``, ``arm`` and ``start`` against the vehicle at ``url``, until the bench runs.
+
+    ``start`` is repeated (re-arming first if the vehicle fell back to IDLE) while the bench has not
+    started simulated time: the vehicle acknowledges START but its autopilot refuses it until the
+    navigation solution is valid. Raises RuntimeError with the ground station's output on failure.
+    """
+    tlogs = work / "gcs-tlogs"
+    t0 = time.monotonic()
+    deadline = t0 + timeout_s
+    info: dict[str, Any] = {"gcs_tlogs": str(tlogs), "gcs_start_attempts": 0}
+    with open(work / "gcs.log", "a") as log:
+
+        def gcs(*args: str, wait_s: float = 10.0) -> tuple[int, dict[str, Any]]:
+            left = max(1.0, min(wait_s, deadline - time.monotonic()))
+            return run_gcs(url, tlogs, *args, log=log, timeout_s=left)
+
+        def fail(what: str) -> RuntimeError:
+            tail = (work / "gcs.log").read_text(errors="replace")[-800:]
+            return RuntimeError(f"{what}; see {work}/gcs.log:\n{tail}")
+
+        # The firmware binds its MAVLink socket within a second or two of its start; auv-gcs waits for
+        # its heartbeat, and a link error (exit 2) before the deadline is tried again.
+        while True:
+            code, data = gcs("upload", str(mission), wait_s=15.0)
+            if code == 0 and data.get("ok"):
+                info["gcs_upload_s"] = round(float(data["results"][0]["elapsed_s"]), 4)
+                break
+            if code == 1 or time.monotonic() > deadline or hil.poll() is not None:
+                raise fail(f"auv-gcs upload failed (exit {code})")
+        armed = False
+        while not _bench_started(hil, hil_log):
+            if time.monotonic() > deadline:
+                raise fail(f"the vehicle did not start within {timeout_s:g} s")
+            if not armed:
+                code, data = gcs("arm")
+                armed = code == 0
+                if code == 1:  # refused: the vehicle is not in a state it can arm from
+                    raise fail(f"auv-gcs arm refused ({data.get('result')})")
+                continue
+            info["gcs_start_attempts"] += 1
+            code, data = gcs("start")
+            if code == 1:  # DENIED: not armed (any more); arm again, then start
+                armed = False
+                continue
+            if code != 0:
+                continue
+            # Accepted by the endpoint: wait for the autopilot to take it (the bench sees RUNNING).
+            until = time.monotonic() + 1.5
+            while time.monotonic() < until and not _bench_started(hil, hil_log):
+                time.sleep(0.05)
+    info["gcs_wall_s"] = round(time.monotonic() - t0, 3)
+    return info
 
 
 def _stop(proc: subprocess.Popen[Any] | None) -> None:
@@ -213,8 +361,21 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
     channel = f"ws://127.0.0.1:{port}/"
     truth = work / "truth.csv"
     mission = work / "mission.yaml"
-    gx, gy, gyaw = sc.goal
-    mission.write_text(f"goals:\n  - {{x_m: {gx}, y_m: {gy}, depth_m: {DEPTH_M}, yaw_deg: {gyaw}}}\n")
+    mission.write_text(mission_yaml(sc.goal))
+    if opts.upload not in UPLOAD_MODES:
+        raise RuntimeError(f"upload mode {opts.upload!r}: expected one of {', '.join(UPLOAD_MODES)}")
+    mav_port = free_udp_port()
+    if opts.upload == "gcs":
+        # MAVLink on a free port of our own (udpin only: no packets to 14550, where other ground stations
+        # listen); the ground station's heartbeat stops between commands, so losing it must not stop us.
+        mission_args = [
+            "--set",
+            f'mavlink.endpoints=["udpin:127.0.0.1:{mav_port}"]',
+            "--set",
+            'mavlink.gcs_loss_action="continue"',
+        ]
+    else:
+        mission_args = ["--mission", str(mission), "--autostart", "--no-mavlink"]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     hil_cmd = [
         sys.executable,
@@ -254,21 +415,22 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
         *(x for s in _profile_sets(opts) for x in ("--set", s)),
         "--state-dir",
         str(work / "state"),
-        "--mission",
-        str(mission),
-        "--autostart",
-        "--no-mavlink",
+        *mission_args,
         "--summary-json",
         str(work / "onboard.json"),
     ]
     hil = onboard = None
+    gcs_info: dict[str, Any] = {}
     t0 = time.monotonic()
     with open(work / "hil.log", "w") as hil_log, open(work / "onboard.log", "w") as ob_log:
         try:
             hil = subprocess.Popen(hil_cmd, stdout=hil_log, stderr=subprocess.STDOUT, env=env)
             onboard = subprocess.Popen(ob_cmd, stdout=ob_log, stderr=subprocess.STDOUT, env=env)
+            if opts.upload == "gcs":
+                url = f"udpout:127.0.0.1:{mav_port}"
+                gcs_info = upload_and_start(url, mission, work, hil, work / "hil.log")
             try:
-                hil_code = hil.wait(opts.wall_timeout_s)
+                hil_code = hil.wait(max(1.0, opts.wall_timeout_s - (time.monotonic() - t0)))
             except subprocess.TimeoutExpired:
                 hil_code = -1
         finally:
@@ -291,6 +453,7 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
         "guidance": opts.guidance,
         "current_mps_deg": list(opts.current),
         "seed": opts.seed,
+        "upload": opts.upload,
         **metrics,
         "sim_time_s": sim_time,
         "time_limit_s": limit_s,
@@ -305,6 +468,7 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
         "path_length_m": path["length_m"],
         "truth_log": str(truth),
         "telemetry_log": str(work / "telemetry.csv"),
+        **gcs_info,
         "planned_path": path["samples"],
     }
 
@@ -396,6 +560,13 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--plot", metavar="DIR", help="write the paper's figures (PNG) here")
     parser.add_argument("--workdir", help="keep logs here (default: a new temporary directory)")
     parser.add_argument(
+        "--upload",
+        choices=UPLOAD_MODES,
+        default="gcs",
+        help="gcs: upload, arm and start through auv-gcs over MAVLink (default); "
+        "file: auv-onboard --mission FILE --autostart without MAVLink",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         default=[],
@@ -414,7 +585,9 @@ def main(argv: list[str]) -> int:
             )
             return 2
         current = (speed, direction)
-    opts = RunOptions(args.controller, args.guidance, current, args.seed, args.workdir, tuple(args.set))
+    opts = RunOptions(
+        args.controller, args.guidance, current, args.seed, args.workdir, tuple(args.set), upload=args.upload
+    )
     try:
         result = run_scenario(SCENARIOS[args.name], opts)
     except RuntimeError as exc:

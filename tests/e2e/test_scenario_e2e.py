@@ -1,4 +1,4 @@
-"""End to end: `auv-hil scenario` starts the bench and the firmware as real processes over the bench hub."""
+"""End to end: `auv-hil scenario --upload file` (the start-up-file fallback) over real processes."""
 
 from __future__ import annotations
 
@@ -15,7 +15,18 @@ pytestmark = pytest.mark.e2e
 def test_paper_straight_over_real_processes(tmp_path) -> None:
     # GIVEN the default configurations WHEN the scenario runs over real processes in lock-step
     out = subprocess.run(
-        [sys.executable, "-m", "hil_sim", "scenario", "paper-straight", "--json", "--workdir", str(tmp_path)],
+        [
+            sys.executable,
+            "-m",
+            "hil_sim",
+            "scenario",
+            "paper-straight",
+            "--json",
+            "--upload",
+            "file",
+            "--workdir",
+            str(tmp_path),
+        ],
         capture_output=True,
         text=True,
         timeout=180,
