@@ -67,6 +67,10 @@ class GuidanceParams:
     - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
       many seconds (at the reference speed) ahead of the projection, so the rudder moves before the arc
       begins (the fins and the yaw dynamics lag by a fraction of a second).
+    - ``cross_error_limit_m``: where the heading reference already carries the cross-track error (LOS,
+      ILOS, and ``track`` with ``lateral = "path"``), the cross-track error handed to the controller's
+      eq. 9 term is limited to +-this (m; 0 = no limit). Far from the path the LOS heading must win: an
+      unlimited Kp5 * e_y term saturates the rudder whatever the heading, and the vehicle circles.
     """
 
     mode: GuidanceMode = "track"
@@ -82,6 +86,7 @@ class GuidanceParams:
     reference_accel_mps2: float = 0.0
     lateral: Literal["reference", "path"] = "reference"
     curvature_preview_s: float = 0.0
+    cross_error_limit_m: float = 0.0
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
 
@@ -96,6 +101,7 @@ class GuidanceParams:
         require(self.search_back_m >= 0.0 and self.search_ahead_m > 0.0, "search window must be positive")
         require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
         require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
+        require(self.cross_error_limit_m >= 0.0, "cross_error_limit_m must be >= 0")
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
 
@@ -241,6 +247,10 @@ def step(
         if nav_ok:
             los_corr = math.atan((e_cross + sigma * ilos_int) / delta)
             yaw_d = wrap_pi(ref.yaw_rad + los_corr)
+
+    limit = params.cross_error_limit_m
+    if limit > 0.0 and (params.mode != "track" or params.lateral == "path") and math.isfinite(e_cross):
+        e_cross = min(max(e_cross, -limit), limit)
 
     end = sample_extended(path, length)
     if nav_ok:

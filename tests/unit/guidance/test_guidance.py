@@ -234,3 +234,35 @@ def test_ilos_removes_a_constant_current_offset_that_los_keeps() -> None:
     crab = math.asin(0.3 / 1.0)
     assert los_final == pytest.approx(3.0 * math.tan(crab), rel=0.1)
     assert ilos_final < 0.05 and ilos_tail < 0.1
+
+
+def test_reference_accelerates_from_rest_when_configured() -> None:
+    # GIVEN a track reference that speeds up at 0.2 m/s^2 to 1.0 m/s
+    params = GuidanceParams(mode="track", speed_mps=1.0, reference_accel_mps2=0.2)
+    nav = nav_state_at(0.0, 0.0, 1.0, 0.0)
+    state = GuidanceState()
+    # WHEN 10 s pass
+    for _ in range(200):
+        r, state, _ = step(nav, straight(0.0), state, params, DT)
+    # THEN it took 5 s to reach full speed (2.5 m + 5 m) and now moves at U
+    assert r.speed_mps == pytest.approx(1.0)
+    assert r.s_ref_m == pytest.approx(7.5, abs=0.06)
+
+
+@pytest.mark.parametrize("mode", ["los", "ilos", "track"])
+def test_cross_error_to_the_controller_is_limited_where_los_carries_it(mode: str) -> None:
+    # GIVEN a vehicle 4 m to port of a northbound path (the path is to starboard: e_y > 0)
+    params = GuidanceParams(mode=mode, lateral="path", lookahead_m=2.0, cross_error_limit_m=0.5)
+    r, _, _ = step(nav_state_at(0.0, -4.0, 1.0, 0.0), straight(0.0), GuidanceState(), params, DT)
+    # THEN the heading reference turns towards the path by the LOS angle, the eq. 9 error is limited
+    assert r.e_cross_m == pytest.approx(0.5)
+    assert r.yaw_rad == pytest.approx(
+        math.atan(4.0 / 2.0), abs=0.05 if mode == "ilos" else 1e-6
+    )  # + integral
+    assert r.cross_track_m == pytest.approx(-4.0)  # the telemetry keeps the true cross-track
+
+
+def test_paper_reference_lateral_is_not_limited() -> None:
+    params = GuidanceParams(mode="track", lateral="reference", cross_error_limit_m=0.5)
+    r, _, _ = step(nav_state_at(0.0, -4.0, 1.0, 0.0), straight(0.0), GuidanceState(), params, DT)
+    assert r.e_cross_m == pytest.approx(4.0)
