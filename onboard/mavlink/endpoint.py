@@ -13,6 +13,15 @@ Heartbeat: MAV_TYPE_SUBMARINE, MAV_AUTOPILOT_GENERIC. ``custom_mode`` uses the P
 for a generic autopilot (main mode in byte 2, sub mode in byte 3: AUTO with READY / MISSION / LOITER / RTL),
 and byte 0 carries our mission state index (0 IDLE, 1 ARMED, 2 RUNNING, 3 HOLD, 4 ABORT, 5 COMPLETE).
 ACTUATOR_OUTPUT_STATUS carries [rudder_rad, stern_port_rad, stern_starboard_rad, propeller_rps].
+
+Mission seq vs goal index: the loop counts goals 0..n-1. When the stored mission starts with an
+ArduPilot-style home item (seq 0, see :mod:`onboard.mavlink.mission_protocol`), MAVLink seq = goal
+index + 1 everywhere (MISSION_CURRENT.seq, MISSION_ITEM_REACHED.seq, MISSION_SET_CURRENT,
+MAV_CMD_DO_SET_MISSION_CURRENT and MAV_CMD_MISSION_START first_item); a seq naming the home item selects
+goal 0; MISSION_CURRENT.total counts the goals only (the spec excludes home). A plan with no goals (count 0,
+MISSION_CLEAR_ALL, or only a home item) is refused with MAV_MISSION_ERROR while RUNNING, because the mission
+state machine cannot take a mission without goals while running (the vehicle would keep flying a plan the
+ground station believes cleared); hold or abort first. A resume with no goals is denied.
 """
 
 from __future__ import annotations
@@ -39,7 +48,11 @@ from onboard.mavlink.mission_protocol import (
     MissionItem,
     MissionLimits,
     MissionServer,
+    PlanRefused,
+    goal_items,
+    goal_of_seq,
     items_from_mission,
+    seq_of_goal,
 )
 from onboard.mavlink.params import DEFAULT_PARAMS, ParamSpec, ParamTable
 from onboard.mavlink.persistence import StateStore
@@ -175,7 +188,7 @@ class VehicleLink:
             if items is not None:
                 stored[mt] = items
         self.missions = MissionServer(
-            self.limits, (config.system_id, config.component_id), stored, commit=self._store.save_plan
+            self.limits, (config.system_id, config.component_id), stored, commit=self._commit_plan
         )
         if initial_mission is not None:
             goals, fences = items_from_mission(initial_mission)
@@ -239,8 +252,9 @@ class VehicleLink:
                     self._notes.append((mavlink.MAV_SEVERITY_CRITICAL, f"failsafe: {snapshot.failsafe}"))
                 else:
                     self._notes.append((mavlink.MAV_SEVERITY_NOTICE, "failsafe cleared"))
+            offset = self.missions.home_offset()
             for k in range(max(0, snapshot.goals_reached - prev.goals_reached)):
-                self._reached.append(prev.current_goal + k)
+                self._reached.append(seq_of_goal(prev.current_goal + k, offset))
 
     def take_events(self) -> list[VehicleEvent]:
         """All events since the last call, oldest first (call once per tick)."""
@@ -508,27 +522,44 @@ class VehicleLink:
 
     def _n_goals(self) -> int:
         with self._lock:
-            return len(self.missions.items(TYPE_MISSION))
+            return self.missions.goal_count()
+
+    def _goal_shape(self) -> tuple[int, int]:
+        """(home offset, number of goals) of the stored mission: MAVLink seq = goal index + offset."""
+        with self._lock:
+            return self.missions.home_offset(), self.missions.goal_count()
+
+    def _commit_plan(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
+        """MissionServer's commit callback (called with ``self._lock`` held): refuse, or persist."""
+        if mission_type == TYPE_MISSION and not goal_items(items):
+            state = self._pending_state or self._snapshot.state
+            if state == "RUNNING":
+                self._notes.append((mavlink.MAV_SEVERITY_WARNING, "mission without goals refused: RUNNING"))
+                raise PlanRefused("a mission without goals cannot replace a running one")
+        self._store.save_plan(mission_type, items)
 
     def _set_current(self, seq: int) -> bool:
-        n = self._n_goals()
-        if 0 <= seq < n:
-            self._emit(api.SetCurrent(seq))
+        offset, n = self._goal_shape()
+        index = goal_of_seq(seq, offset, n)
+        if index is not None:
+            self._emit(api.SetCurrent(index))
             state, _ = self._state()
-            self.send(mavlink.MAVLink_mission_current_message(seq, n, _MISSION_STATE[state], 1))
+            current = seq_of_goal(index, offset)
+            self.send(mavlink.MAVLink_mission_current_message(current, n, _MISSION_STATE[state], 1))
             return True
-        self._statustext(mavlink.MAV_SEVERITY_ERROR, f"set current: no item {seq} (have {n})")
+        self._statustext(mavlink.MAV_SEVERITY_ERROR, f"set current: no item {seq} (have {n + offset})")
         return False
 
     def _start(self, state: str, first: float) -> int:
         if state == "RUNNING":
             return mavlink.MAV_RESULT_ACCEPTED
-        n = self._n_goals()
+        offset, n = self._goal_shape()
         if state not in ("ARMED", "HOLD", "COMPLETE") or n < 1:
             return mavlink.MAV_RESULT_DENIED
         first_index: int | None = None
-        if state != "HOLD":
-            first_index = int(first) if math.isfinite(first) and 0 <= first < n else 0
+        if state != "HOLD":  # first_item is a MAVLink seq; out of range (or the home seq) -> goal 0
+            index = goal_of_seq(int(first), offset, n) if math.isfinite(first) else None
+            first_index = 0 if index is None else index
         self._emit(api.StartMission(first_index), pending="RUNNING")
         return mavlink.MAV_RESULT_ACCEPTED
 
@@ -618,7 +649,7 @@ class VehicleLink:
     def _resume(self, state: str) -> int:
         if state == "RUNNING":
             return mavlink.MAV_RESULT_ACCEPTED
-        if state != "HOLD":
+        if state != "HOLD" or self._n_goals() < 1:  # the mission was cleared while holding
             return mavlink.MAV_RESULT_DENIED
         self._emit(api.Resume(), pending="RUNNING")
         return mavlink.MAV_RESULT_ACCEPTED
@@ -757,10 +788,13 @@ class VehicleLink:
                 0, 0, 0, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535), _i(s.overruns, 0, 65535), 0, 0, 0
             )
         elif msg_id == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
-            n = self._n_goals()
+            offset, n = self._goal_shape()  # total excludes a home item (spec)
             mstate = _MISSION_STATE[state] if n else mavlink.MISSION_STATE_NO_MISSION
             m = mavlink.MAVLink_mission_current_message(
-                _i(s.current_goal, 0, 65535), n, mstate, 1 if state in ("RUNNING", "HOLD") else 0
+                _i(seq_of_goal(s.current_goal, offset), 0, 65535),
+                n,
+                mstate,
+                1 if state in ("RUNNING", "HOLD") else 0,
             )
         elif msg_id == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
             c = self.config

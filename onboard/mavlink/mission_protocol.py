@@ -20,6 +20,19 @@ frames (GLOBAL, GLOBAL_INT, GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT: lat/lo
 local frame about the configured origin with a flat-earth projection, and depth = -altitude (as ArduSub
 does; for the AMSL frames the altitude is taken relative to the origin's altitude). Yaw (param4) is in
 degrees, NaN = the planner's choice.
+
+Home item (ArduPilot's convention, as MAVProxy ``wp load`` and Mission Planner send a QGC WPL 110 file): a
+MISSION-type item at **seq 0** in an absolute-altitude global frame (``MAV_FRAME_GLOBAL`` or
+``MAV_FRAME_GLOBAL_INT``) with ``MAV_CMD_NAV_WAYPOINT`` is the home placeholder, see :func:`is_home_item`.
+It is not flown, so it is not checked against the operating area or the depth range (MAVProxy sends lat/lon
+0/0); only validity is checked (lat within +-90 deg -> else INVALID_PARAM5_X, lon within +-180 deg -> else
+INVALID_PARAM6_Y, param1..4 NaN or finite -> else INVALID_PARAMn, altitude finite -> else INVALID_PARAM7).
+It is stored as sent (download returns it unchanged, persistence keeps it) but is not a goal: the goals are
+the items after it. Every other item, including a seq-0 item in a relative-altitude or local frame, is a
+goal. With a home item, MAVLink seq = goal index + 1 (:func:`home_offset`, :func:`seq_of_goal`,
+:func:`goal_of_seq`); without one they are equal. A seq that names the home item maps to goal 0 (the first
+item that is flown, as ArduPilot starts a mission at its first command after home). Our own ground station
+never sends a home item.
 """
 
 from __future__ import annotations
@@ -115,8 +128,65 @@ class MissionLimits:
     upload_timeout_s: float = 5.0
 
 
+class PlanRefused(Exception):
+    """Raised by a commit callback that refuses a complete, valid plan now (answered MAV_MISSION_ERROR)."""
+
+
 def _is_nan_or_finite(v: float) -> bool:
     return math.isnan(v) or math.isfinite(v)
+
+
+HOME_FRAMES = GLOBAL_FRAMES_AMSL  # absolute altitude only, as ArduPilot stores home
+
+
+def is_home_item(item: MissionItem, seq: int, mission_type: int = TYPE_MISSION) -> bool:
+    """True if ``item`` at ``seq`` is the ArduPilot-style home placeholder (see the module docstring)."""
+    return (
+        mission_type == TYPE_MISSION
+        and seq == 0
+        and item.frame in HOME_FRAMES
+        and item.command == mavlink.MAV_CMD_NAV_WAYPOINT
+    )
+
+
+def check_home_item(item: MissionItem) -> int:
+    """Validity checks of a home item (no operating-area or depth check: it is not flown)."""
+    if abs(item.x) > 90 * GLOBAL_SCALE:
+        return mavlink.MAV_MISSION_INVALID_PARAM5_X
+    if abs(item.y) > 180 * GLOBAL_SCALE:
+        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+    for value, code in (
+        (item.param1, mavlink.MAV_MISSION_INVALID_PARAM1),
+        (item.param2, mavlink.MAV_MISSION_INVALID_PARAM2),
+        (item.param3, mavlink.MAV_MISSION_INVALID_PARAM3),
+        (item.param4, mavlink.MAV_MISSION_INVALID_PARAM4),
+    ):
+        if not _is_nan_or_finite(value):
+            return code
+    if not math.isfinite(item.z):
+        return mavlink.MAV_MISSION_INVALID_PARAM7
+    return mavlink.MAV_MISSION_ACCEPTED
+
+
+def home_offset(items: tuple[MissionItem, ...] | list[MissionItem]) -> int:
+    """1 if the stored MISSION plan ``items`` starts with a home item, else 0 (seq = goal index + offset)."""
+    return 1 if items and is_home_item(items[0], 0) else 0
+
+
+def goal_items(items: tuple[MissionItem, ...]) -> tuple[MissionItem, ...]:
+    """The items of a MISSION plan that are goals (all but a leading home item)."""
+    return items[home_offset(items) :]
+
+
+def seq_of_goal(index: int, offset: int) -> int:
+    """The MAVLink mission seq of goal ``index`` (``offset`` from :func:`home_offset`)."""
+    return index + offset
+
+
+def goal_of_seq(seq: int, offset: int, n_goals: int) -> int | None:
+    """The goal index of MAVLink mission ``seq``; the home seq 0 maps to goal 0; None if out of range."""
+    index = max(seq - offset, 0) if seq >= 0 else -1
+    return index if 0 <= index < n_goals else None
 
 
 def item_position(item: MissionItem, limits: MissionLimits) -> tuple[float, float, float]:
@@ -132,8 +202,13 @@ def item_position(item: MissionItem, limits: MissionLimits) -> tuple[float, floa
     return x_m, y_m, depth_m
 
 
-def check_item(item: MissionItem, mission_type: int, limits: MissionLimits) -> int:
-    """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing check on one item."""
+def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq: int | None = None) -> int:
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing check on one item.
+
+    With ``seq`` given, a home item at seq 0 (:func:`is_home_item`) gets :func:`check_home_item` instead.
+    """
+    if seq is not None and is_home_item(item, seq, mission_type):
+        return check_home_item(item)
     if mission_type == TYPE_MISSION:
         if item.command != mavlink.MAV_CMD_NAV_WAYPOINT:
             return mavlink.MAV_MISSION_UNSUPPORTED
@@ -187,11 +262,11 @@ def obstacle_from_item(item: MissionItem, limits: MissionLimits) -> Obstacle:
 
 
 def mission_from_items(
-    goals: tuple[MissionItem, ...], fences: tuple[MissionItem, ...], limits: MissionLimits
+    items: tuple[MissionItem, ...], fences: tuple[MissionItem, ...], limits: MissionLimits
 ) -> Mission:
-    """Combine the stored mission and fence plans into one :class:`Mission`."""
+    """Combine the stored mission and fence plans into one :class:`Mission` (a home item is no goal)."""
     return Mission(
-        goals=tuple(goal_from_item(i, limits) for i in goals),
+        goals=tuple(goal_from_item(i, limits) for i in goal_items(items)),
         obstacles=tuple(obstacle_from_item(i, limits) for i in fences),
     )
 
@@ -284,8 +359,9 @@ class MissionServer:
 
     ``handle(msg, sender, now_s)`` and ``poll(now_s)`` return the messages to send (already addressed);
     ``now_s`` is a monotonic wall-clock time. ``commit(mission_type, items)`` is called with a complete
-    valid plan before its ACK; if it raises, the upload is answered with MAV_MISSION_ERROR and the stored
-    plan is unchanged. After a successful commit, :meth:`take_changed` reports that the plan changed.
+    valid plan before its ACK; if it raises (a persistence error, or :class:`PlanRefused`), the upload is
+    answered with MAV_MISSION_ERROR and the stored plan is unchanged. After a successful commit,
+    :meth:`take_changed` reports that the plan changed.
     """
 
     def __init__(
@@ -318,6 +394,14 @@ class MissionServer:
     def mission(self) -> Mission:
         """The stored mission and fence as one :class:`Mission`."""
         return mission_from_items(self._plans[TYPE_MISSION], self._plans[TYPE_FENCE], self.limits)
+
+    def home_offset(self) -> int:
+        """1 if the stored MISSION plan starts with a home item (MAVLink seq = goal index + 1), else 0."""
+        return home_offset(self._plans[TYPE_MISSION])
+
+    def goal_count(self) -> int:
+        """The number of goals in the stored MISSION plan (a home item is not counted)."""
+        return len(self._plans[TYPE_MISSION]) - self.home_offset()
 
     def take_changed(self) -> bool:
         """True once after each change of the stored plans."""
@@ -395,7 +479,7 @@ class MissionServer:
         try:
             if self._commit is not None:
                 self._commit(mission_type, items)
-        except Exception:  # persistence failed: keep the old plan, tell the GCS
+        except Exception:  # persistence failed or the plan was refused: keep the old plan, tell the GCS
             self.stats.uploads_rejected += 1
             return int(mavlink.MAV_MISSION_ERROR)
         self._plans[mission_type] = items
@@ -435,7 +519,9 @@ class MissionServer:
             up.last_req_s = now_s
             return [self._request(up)]
         item = item_from_message(msg)
-        result = mavlink.MAV_MISSION_INVALID_PARAM5_X if item is None else check_item(item, mt, self.limits)
+        result = (
+            mavlink.MAV_MISSION_INVALID_PARAM5_X if item is None else check_item(item, mt, self.limits, seq)
+        )
         if result != mavlink.MAV_MISSION_ACCEPTED or item is None:
             self._upload = None
             self.stats.uploads_rejected += 1

@@ -17,6 +17,7 @@ from onboard.mavlink.mission_protocol import (
     MissionServer,
     check_item,
     goal_from_item,
+    is_home_item,
     item_position,
 )
 
@@ -271,10 +272,12 @@ def test_random_items_never_crash_and_change_plan_only_when_valid(frame, command
     srv = MissionServer(LIMITS, stored={TYPE_MISSION: (wp(1, 1, 1),)})
     it = MissionItem(frame, command, *p, x, y, z)
     ack = only(upload(srv, [it]))
-    expected = check_item(it, TYPE_MISSION, LIMITS)
+    expected = check_item(it, TYPE_MISSION, LIMITS, seq=0)
     assert ack.type == expected
     goals = srv.mission().goals
-    if expected == mavlink.MAV_MISSION_ACCEPTED:
+    if expected == mavlink.MAV_MISSION_ACCEPTED and is_home_item(it, 0):
+        assert goals == () and srv.items(TYPE_MISSION) == (it,)  # a lone home item: no goals
+    elif expected == mavlink.MAV_MISSION_ACCEPTED:
         (g,) = goals
         g.validate()
         assert abs(g.x_m) <= 500 and abs(g.y_m) <= 500 and 0 <= g.depth_m <= 100
