@@ -20,10 +20,10 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, Protocol, overload
 
 from onboard.protocol.config import require
 from onboard.protocol.messages import (
@@ -107,6 +107,45 @@ class LoopStats:
     compute_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
 
 
+class TelemetryHistory(Sequence[dict[str, Any]]):
+    """The telemetry rows of the last ``maxlen`` ticks, oldest first: ``{"t_s", "tick", **telemetry_row(),
+    "overruns"}``.
+
+    A read-only sequence of dicts. It keeps each tick's (immutable) autopilot output and builds the row
+    only when it is read: building a row costs more than the rest of the bookkeeping of a tick, and most
+    rows are never read.
+    """
+
+    def __init__(self, maxlen: int) -> None:
+        self._ticks: deque[tuple[float, int, int, AutopilotOutput]] = deque(maxlen=maxlen)
+
+    def record(self, now_s: float, tick: int, overruns: int, out: AutopilotOutput) -> None:
+        """Keep one tick: its time (s), number, the overrun count at that tick and the output."""
+        self._ticks.append((now_s, tick, overruns, out))
+
+    @staticmethod
+    def row(now_s: float, tick: int, overruns: int, out: AutopilotOutput) -> dict[str, Any]:
+        row: dict[str, Any] = {"t_s": now_s, "tick": tick, **out.telemetry_row()}
+        row["overruns"] = overruns
+        return row
+
+    def __len__(self) -> int:
+        return len(self._ticks)
+
+    @overload
+    def __getitem__(self, index: int) -> dict[str, Any]: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[dict[str, Any]]: ...
+    def __getitem__(self, index: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
+        if isinstance(index, slice):
+            return [self.row(*t) for t in list(self._ticks)[index]]
+        return self.row(*self._ticks[index])
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        for t in list(self._ticks):  # a snapshot: the loop may append while a reader iterates
+            yield self.row(*t)
+
+
 class ControlLoop:
     """Drive an :class:`Autopilot` from a :class:`BusPort` at a fixed rate (see the module docstring)."""
 
@@ -125,7 +164,7 @@ class ControlLoop:
         self.clock = clock
         self.stats = LoopStats()
         self.cache: dict[type, BusMessage] = {}
-        self.history: deque[dict[str, Any]] = deque(maxlen=config.history)
+        self.history = TelemetryHistory(config.history)
         self._last_state: MissionStateCode | None = None
         self._next_heartbeat_s = -1.0
         self._t0_s: float | None = None
@@ -168,10 +207,9 @@ class ControlLoop:
         return out
 
     def _record(self, out: AutopilotOutput, now_s: float) -> None:
-        row: dict[str, Any] = {"t_s": now_s, "tick": self.stats.ticks, **out.telemetry_row()}
-        row["overruns"] = self.stats.overruns
-        self.history.append(row)
+        self.history.record(now_s, self.stats.ticks, self.stats.overruns, out)
         if self.config.telemetry_csv:
+            row = TelemetryHistory.row(now_s, self.stats.ticks, self.stats.overruns, out)
             if self._csv is None:
                 path = Path(self.config.telemetry_csv)
                 path.parent.mkdir(parents=True, exist_ok=True)

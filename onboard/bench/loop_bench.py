@@ -14,7 +14,8 @@ and reports; it asserts nothing about time. Two parts:
     repeatable.
     Figures: ``tick_compute_p50_us``, ``tick_compute_p99_us``, ``tick_compute_mean_us``,
     ``tick_compute_max_us``; ``autopilot_step_p50_us`` / ``autopilot_step_p99_us`` (the autopilot's share
-    of the tick; the rest is E2E encode, virtual-bus send and telemetry); ``drain_decode_p50_us`` /
+    of the tick; the rest is E2E encode, virtual-bus send and telemetry); ``loop_own_p50_us`` /
+    ``loop_own_p99_us`` (that rest: tick minus autopilot step, per tick); ``drain_decode_p50_us`` /
     ``drain_decode_p99_us`` (the bus drain and E2E decode of the tick's 7 frames, outside ``tick``);
     ``tick_compute_ticks``, ``tick_compute_running_ticks``, ``tick_compute_replanned`` (sanity: all timed
     ticks RUNNING, no re-plan), ``tick_compute_rate_hz``.
@@ -207,6 +208,7 @@ def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> di
         sensor_port.close()
 
     us = 1e6
+    loop_own_s = [t - a for t, a in zip(tick_s, timed.step_s, strict=True)]
     return {
         "tick_compute_p50_us": _percentile(tick_s, 50) * us,
         "tick_compute_p99_us": _percentile(tick_s, 99) * us,
@@ -214,6 +216,8 @@ def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> di
         "tick_compute_max_us": max(tick_s) * us,
         "autopilot_step_p50_us": _percentile(timed.step_s, 50) * us,
         "autopilot_step_p99_us": _percentile(timed.step_s, 99) * us,
+        "loop_own_p50_us": _percentile(loop_own_s, 50) * us,
+        "loop_own_p99_us": _percentile(loop_own_s, 99) * us,
         "drain_decode_p50_us": _percentile(drain_s, 50) * us,
         "drain_decode_p99_us": _percentile(drain_s, 99) * us,
         "tick_compute_ticks": float(len(tick_s)),

@@ -205,6 +205,9 @@ class ControlDebug:
     raw: ActuatorCommand
 
 
+_NAN_INPUT = ActuatorFlag.NAN_INPUT.value  # a plain int: IntFlag & IntFlag costs ~1 us
+
+
 def _depth_rate_mps(nav: NavState) -> float:
     """Measured depth rate dz/dt (m/s, + = diving) from the body velocity and attitude (NED z row of R)."""
     cf, sf = math.cos(nav.roll_rad), math.sin(nav.roll_rad)
@@ -236,31 +239,31 @@ def step(
     )
 
     # Derivatives: differences over dt_s (optionally low-passed), or measured rates where cleaner.
+    rates = g.derivative == "rates"
     prev = state.errors
     d = list(state.derivatives)
     if prev is None:
         d = [0.0] * 5
     elif dt_ok:
         alpha = dt_s / (g.derivative_tau_s + dt_s)
-        for i in range(5):
+        for i in range(2 if rates else 5):  # with measured rates, e_z, e_psi, e_theta are not differenced
             diff = wrap_pi(e[i] - prev[i]) if i == 3 else e[i] - prev[i]
             d[i] += alpha * (diff / dt_s - d[i])
-    if g.derivative == "rates":
+    if rates:
         d[2] = reference.depth_rate_mps - _depth_rate_mps(nav)
         d[3] = reference.yaw_rate_radps - nav.r_radps
         d[4] = reference.pitch_rate_radps - nav.q_radps
 
     ex, ey, ez, epsi, eth = e
-    dx, dy, dz, dpsi, dth = d
-    terms = {
-        "P1": g.Kp1 * ex, "D1": g.KD1 * dx, "P2": g.Kp2 * ey, "D2": g.KD2 * dy,
-        "P3": g.Kp3 * ez, "D3": g.KD3 * dz, "P4": g.Kp4 * ex, "D4": g.KD4 * dx,
-        "P5": g.Kp5 * ey, "D5": g.KD5 * dy, "P6": g.Kp6 * epsi, "D6": g.KD6 * dpsi,
-        "P7": g.Kp7 * ez, "D7": g.KD7 * dz, "P8": g.Kp8 * eth, "D8": g.KD8 * dth,
-    }  # fmt: skip
-    rps = sum(terms[k] for k in ("P1", "D1", "P2", "D2", "P3", "D3"))  # eq. 8
-    rudder = sum(terms[k] for k in ("P4", "D4", "P5", "D5", "P6", "D6"))  # eq. 9
-    stern = sum(terms[k] for k in ("P7", "D7", "P8", "D8"))  # eq. 10
+    dx, dy, dz, dpsi, dth = derivatives = (d[0], d[1], d[2], d[3], d[4])
+    p1, d1, p2, d2 = g.Kp1 * ex, g.KD1 * dx, g.Kp2 * ey, g.KD2 * dy
+    p3, d3, p4, d4 = g.Kp3 * ez, g.KD3 * dz, g.Kp4 * ex, g.KD4 * dx
+    p5, d5, p6, d6 = g.Kp5 * ey, g.KD5 * dy, g.Kp6 * epsi, g.KD6 * dpsi
+    p7, d7, p8, d8 = g.Kp7 * ez, g.KD7 * dz, g.Kp8 * eth, g.KD8 * dth
+    # Summed left to right from 0.0, as sum() did, so the result is the same to the bit (-0.0 included).
+    rps = 0.0 + p1 + d1 + p2 + d2 + p3 + d3  # eq. 8
+    rudder = 0.0 + p4 + d4 + p5 + d5 + p6 + d6  # eq. 9
+    stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
 
     rps_ff = rudder_ff = 0.0
     if g.feedforward:
@@ -273,13 +276,17 @@ def step(
     port, stbd = stern_split(stern, roll_diff)
     raw = ActuatorCommand(rudder + rudder_ff, port, stbd, rps + rps_ff)
     command = saturate(raw, state.command, params.limits, dt_s)
-    if command.flags & ActuatorFlag.NAN_INPUT:
+    if int(command.flags) & _NAN_INPUT:
         new_state = ControllerState(errors=None, command=command)
     else:
-        new_state = ControllerState(errors=e, derivatives=(d[0], d[1], d[2], d[3], d[4]), command=command)
+        new_state = ControllerState(errors=e, derivatives=derivatives, command=command)
+    terms = {
+        "P1": p1, "D1": d1, "P2": p2, "D2": d2, "P3": p3, "D3": d3, "P4": p4, "D4": d4,
+        "P5": p5, "D5": d5, "P6": p6, "D6": d6, "P7": p7, "D7": d7, "P8": p8, "D8": d8,
+    }  # fmt: skip
     debug = ControlDebug(
         errors=e,
-        derivatives=(dx, dy, dz, dpsi, dth),
+        derivatives=derivatives,
         terms=terms,
         rps_ff=rps_ff,
         rudder_ff_rad=rudder_ff,

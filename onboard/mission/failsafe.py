@@ -87,38 +87,53 @@ class FailsafeResult:
     reason: str
 
 
+# Flag bits as plain ints (IntFlag arithmetic costs ~1 us per operation; check runs every tick).
+_NAV_STALE = FailsafeFlag.NAV_STALE.value
+_DEPTH_LIMIT = FailsafeFlag.DEPTH_LIMIT.value
+_AREA_BOUND = FailsafeFlag.AREA_BOUND.value
+_OVERRUNS = FailsafeFlag.OVERRUNS.value
+_NO_FLAGS = FailsafeFlag(0)
+_ALL_PASS = FailsafeResult(abort=False, flags=_NO_FLAGS, newly=_NO_FLAGS, reason="")
+
+
 def check(
     nav: NavState, overran: bool, state: FailsafeState, params: FailsafeParams
 ) -> tuple[FailsafeResult, FailsafeState]:
     """Run every failsafe check on the navigation solution ``nav`` and this tick's overrun flag."""
-    flags = FailsafeFlag(0)
+    flags = 0
     reasons: list[str] = []
 
-    ages = (nav.attitude_age_s, nav.depth_age_s)
-    finite = all(math.isfinite(v) for v in (nav.x_m, nav.y_m, nav.depth_m))
-    if not nav.valid or not finite or max(ages) > params.nav_timeout_s:
-        flags |= FailsafeFlag.NAV_STALE
+    isfinite = math.isfinite
+    finite = isfinite(nav.x_m) and isfinite(nav.y_m) and isfinite(nav.depth_m)
+    if not nav.valid or not finite or max(nav.attitude_age_s, nav.depth_age_s) > params.nav_timeout_s:
+        flags |= _NAV_STALE
         reasons.append(
             f"navigation stale (conditions {nav.conditions.name or 0}, attitude age "
             f"{nav.attitude_age_s:.2f} s, depth age {nav.depth_age_s:.2f} s)"
         )
     if math.isfinite(nav.depth_m) and nav.depth_m > params.max_depth_m:
-        flags |= FailsafeFlag.DEPTH_LIMIT
+        flags |= _DEPTH_LIMIT
         reasons.append(f"depth {nav.depth_m:.2f} m beyond limit {params.max_depth_m:.2f} m")
     if finite and not (
         params.area_x_min_m <= nav.x_m <= params.area_x_max_m
         and params.area_y_min_m <= nav.y_m <= params.area_y_max_m
     ):
-        flags |= FailsafeFlag.AREA_BOUND
+        flags |= _AREA_BOUND
         reasons.append(f"position ({nav.x_m:.1f}, {nav.y_m:.1f}) m outside the operating area")
     overruns = state.overruns_in_row + 1 if overran else 0
     if overruns >= params.max_overruns_in_row:
-        flags |= FailsafeFlag.OVERRUNS
+        flags |= _OVERRUNS
         reasons.append(f"{overruns} loop overruns in a row")
 
-    newly = flags & ~state.flags
-    result = FailsafeResult(abort=bool(flags), flags=flags, newly=newly, reason="; ".join(reasons))
-    return result, FailsafeState(overruns_in_row=overruns, flags=flags)
+    if overruns == state.overruns_in_row and flags == state.flags:
+        new_state = state  # unchanged (immutable): no new object
+    else:
+        new_state = FailsafeState(overruns_in_row=overruns, flags=FailsafeFlag(flags))
+    if not flags:
+        return _ALL_PASS, new_state
+    newly = FailsafeFlag(flags & ~int(state.flags))
+    result = FailsafeResult(abort=True, flags=new_state.flags, newly=newly, reason="; ".join(reasons))
+    return result, new_state
 
 
 def abort_command(params: FailsafeParams) -> ActuatorCommand:

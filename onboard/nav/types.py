@@ -98,6 +98,14 @@ NAV_BLOCKING = (
     | NavCondition.DEPTH_STALE
 )
 
+# Plain-int masks for the validity properties, read every tick: ``IntFlag & IntFlag`` costs ~1 us in
+# CPython, ``int & int`` ~0.05 us.
+_BLOCKING_BITS = NAV_BLOCKING.value
+_POSITION_INVALID_BITS = NavCondition.POSITION_INVALID.value
+_ATTITUDE_BITS = (NavCondition.AHRS_MISSING | NavCondition.AHRS_STALE).value
+_DEPTH_BITS = (NavCondition.DEPTH_MISSING | NavCondition.DEPTH_STALE).value
+_VELOCITY_BITS = (NavCondition.DVL_MISSING | NavCondition.DVL_STALE).value
+
 
 @dataclass(frozen=True)
 class NavState:
@@ -137,24 +145,24 @@ class NavState:
     @property
     def position_valid(self) -> bool:
         """True when the horizontal position estimate may be used."""
-        return not (self.conditions & NavCondition.POSITION_INVALID)
+        return not (int(self.conditions) & _POSITION_INVALID_BITS)
 
     @property
     def attitude_valid(self) -> bool:
-        return not (self.conditions & (NavCondition.AHRS_MISSING | NavCondition.AHRS_STALE))
+        return not (int(self.conditions) & _ATTITUDE_BITS)
 
     @property
     def depth_valid(self) -> bool:
-        return not (self.conditions & (NavCondition.DEPTH_MISSING | NavCondition.DEPTH_STALE))
+        return not (int(self.conditions) & _DEPTH_BITS)
 
     @property
     def velocity_valid(self) -> bool:
-        return not (self.conditions & (NavCondition.DVL_MISSING | NavCondition.DVL_STALE))
+        return not (int(self.conditions) & _VELOCITY_BITS)
 
     @property
     def valid(self) -> bool:
         """True when nothing blocks closed-loop control (see :data:`NAV_BLOCKING`)."""
-        return not (self.conditions & NAV_BLOCKING)
+        return not (int(self.conditions) & _BLOCKING_BITS)
 
 
 def nav_state_at(
