@@ -76,7 +76,7 @@ class BenchConfig:
     control_rate_hz: float = 20.0
     sensor_profile: Literal["basin", "sea"] = "basin"
     seed: int = 0
-    actuator_timeout_periods: int = 5
+    actuator_timeout_periods: int = 0  # 0 = the vehicle's [actuators] watchdog_timeout_periods
     echo_timeout_s: float = 10.0
     duration_s: float = 0.0
     stop_on_state: tuple[str, ...] = ()
@@ -87,7 +87,7 @@ class BenchConfig:
 
     def __post_init__(self) -> None:
         require(1.0 <= self.control_rate_hz <= 200.0, "control_rate_hz must be within 1..200")
-        require(self.actuator_timeout_periods >= 1, "actuator_timeout_periods must be >= 1")
+        require(self.actuator_timeout_periods >= 0, "actuator_timeout_periods must be >= 0")
         require(self.echo_timeout_s > 0.0, "echo_timeout_s must be > 0")
         require(self.duration_s >= 0.0 and self.stop_delay_s >= 0.0, "durations must be >= 0")
         for s in self.stop_on_state:
@@ -144,18 +144,28 @@ class ActuatorNode:
     watchdog: WatchdogState = field(default_factory=WatchdogState)
     fin: m.FinCmd | None = None
     prop: m.PropCmd | None = None
-    fresh: bool = False
+    fin_fresh: bool = False
+    prop_fresh: bool = False
 
     def take(self, msg: m.BusMessage) -> None:
         if isinstance(msg, m.FinCmd):
-            self.fin, self.fresh = msg, True
+            self.fin, self.fin_fresh = msg, True
         elif isinstance(msg, m.PropCmd):
-            self.prop, self.fresh = msg, True
+            self.prop, self.prop_fresh = msg, True
+
+    @property
+    def armed(self) -> bool:
+        """Following ARMED commands now (not in a latched failsafe)."""
+        return self.prop is not None and self.prop.mode is m.ActuatorMode.ARMED and not self.watchdog.failsafe
 
     def end_period(self) -> ActuatorCommand:
-        """Close one control period: advance the watchdog; the command the actuators follow."""
+        """Close one control period: advance the watchdog; the command the actuators follow.
+
+        A period counts as commanded only when both a valid FIN_CMD and a valid PROP_CMD arrived in it (a
+        rejected fin frame next to a good propeller frame does not keep stale fins alive).
+        """
         cmd: ActuatorCommand | None = None
-        if self.fresh and self.fin is not None and self.prop is not None:
+        if self.fin_fresh and self.prop_fresh and self.fin is not None and self.prop is not None:
             mode = self.prop.mode
             if mode is m.ActuatorMode.SAFE:
                 cmd = ActuatorCommand()
@@ -171,7 +181,7 @@ class ActuatorNode:
         self.watchdog = watchdog_tick(self.watchdog, cmd, self.timeout_periods)
         if self.watchdog.failsafe and not was:
             log.warning("actuator failsafe: no valid command for %d periods", self.timeout_periods)
-        self.fresh = False
+        self.fin_fresh = self.prop_fresh = False
         return watchdog_output(self.watchdog)
 
 
@@ -280,7 +290,9 @@ class Bench:
         self.rng = np.random.default_rng(cfg.bench.seed)
         # Pre-start samples (their count depends on how long the operator takes) use their own generator.
         self.idle_rng = np.random.default_rng([cfg.bench.seed, 1])
-        self.node = ActuatorNode(cfg.bench.actuator_timeout_periods)
+        self.node = ActuatorNode(
+            cfg.bench.actuator_timeout_periods or params.config.actuators.watchdog_timeout_periods
+        )
         self.pending: list[Measurement] = []
         self.applied = ActuatorCommand()
 
@@ -315,7 +327,7 @@ class Bench:
             ),
             m.PropStatus(
                 _clip(a.propeller_rps, -40.0, 40.0),
-                self.node.prop is not None and self.node.prop.mode is m.ActuatorMode.ARMED,
+                self.node.armed,
                 wd.failsafe,
                 False,
                 min(rejected_frames, 65535),

@@ -189,7 +189,7 @@ def failsafe_flags(tick: Tick) -> tuple[bool, bool]:
 # --- (a) the actuator failsafe ---------------------------------------------------------------------------
 def test_failsafe_fires_within_the_timeout_when_commands_stop_and_latches_until_safe() -> None:
     cfg = _config(_channel("failsafe"))
-    timeout = cfg.bench.actuator_timeout_periods
+    timeout = cfg.bench.actuator_timeout_periods or load_params().config.actuators.watchdog_timeout_periods
     with bench_and_onboard(cfg) as (bench, onboard):
         # GIVEN a running bench that follows ARMED commands
         tick = start(onboard)
@@ -252,7 +252,7 @@ def test_actuator_heartbeat_reports_the_latched_failsafe() -> None:
 # --- (b) a corrupt command stream ---------------------------------------------------------------------------
 def test_corrupt_commands_are_rejected_counted_and_trigger_the_failsafe() -> None:
     cfg = _config(_channel("corrupt"))
-    timeout = cfg.bench.actuator_timeout_periods
+    timeout = cfg.bench.actuator_timeout_periods or load_params().config.actuators.watchdog_timeout_periods
     codec = Codec()
     fin_id, prop_id = codec.frame_id(m.FinCmd), codec.frame_id(m.PropCmd)
     with bench_and_onboard(cfg) as (bench, onboard):
@@ -435,3 +435,20 @@ def test_truth_log_has_one_row_per_period_with_the_expected_columns(tmp_path: Pa
     assert float(rows[0]["depth_m"]) == pytest.approx(1.5, abs=0.01)
     assert float(rows[0]["yaw_deg"]) == pytest.approx(30.0, abs=0.1)
     assert {r["onboard_state"] for r in rows} == {"RUNNING"}
+
+
+def test_a_period_counts_as_commanded_only_with_both_command_frames() -> None:
+    # GIVEN an armed actuator node that received both frames once
+    from hil_sim.bench_program import ActuatorNode
+
+    node = ActuatorNode(timeout_periods=3)
+    node.take(m.FinCmd(0.1, 0.0, 0.0))
+    node.take(m.PropCmd(20.0, m.ActuatorMode.ARMED))
+    assert node.end_period().propeller_rps == 20.0 and node.armed
+    # WHEN only PROP_CMD keeps coming (every FIN_CMD rejected by the E2E checks)
+    for _ in range(3):
+        node.take(m.PropCmd(20.0, m.ActuatorMode.ARMED))
+        out = node.end_period()
+    # THEN the watchdog fires: stale fins are not kept alive by a fresh propeller frame; no longer armed
+    assert node.watchdog.failsafe and out.propeller_rps == 0.0 and out.rudder_rad == 0.0
+    assert not node.armed
