@@ -14,6 +14,17 @@ for a generic autopilot (main mode in byte 2, sub mode in byte 3: AUTO with READ
 and byte 0 carries our mission state index (0 IDLE, 1 ARMED, 2 RUNNING, 3 HOLD, 4 ABORT, 5 COMPLETE).
 ACTUATOR_OUTPUT_STATUS carries [rudder_rad, stern_port_rad, stern_starboard_rad, propeller_rps].
 
+MAVSDK / QGroundControl / MAVProxy interoperability: MAV_CMD_DO_SET_MODE with a PX4 custom mode (what
+MAVSDK sends to a generic autopilot: param1 base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, param2 main
+mode AUTO, param3 sub mode) starts (MISSION), holds (LOITER), aborts (RTL), or is a no-op (READY while
+not running); MissionRaw.start_mission / pause_mission and Action.hold use it. GLOBAL_POSITION_INT is the
+local position projected about the configured origin (alt = origin altitude - depth), at the position rate,
+for MAVSDK's Telemetry.position and QGC's map. MAV_CMD_GET_HOME_POSITION (deprecated, still sent by
+MAVProxy) is ACCEPTED and answered with HOME_POSITION. MAV_CMD_REQUEST_PROTOCOL_VERSION stays UNSUPPORTED
+(PROTOCOL_VERSION is not in pymavlink's ``common`` dialect; QGC then goes by the frames it sees, which are
+MAVLink 2). EXTENDED_SYS_STATE (landed state undefined) is off unless a ground station sets its
+interval (MAVSDK does).
+
 Mission seq vs goal index: the loop counts goals 0..n-1. When the stored mission starts with an
 ArduPilot-style home item (seq 0, see :mod:`onboard.mavlink.mission_protocol`), MAVLink seq = goal
 index + 1 everywhere (MISSION_CURRENT.seq, MISSION_ITEM_REACHED.seq, MISSION_SET_CURRENT,
@@ -52,6 +63,7 @@ from onboard.mavlink.mission_protocol import (
     goal_items,
     goal_of_seq,
     items_from_mission,
+    local_to_global,
     seq_of_goal,
 )
 from onboard.mavlink.params import DEFAULT_PARAMS, ParamSpec, ParamTable
@@ -215,6 +227,7 @@ class VehicleLink:
         for msg_id, rate in (
             (mavlink.MAVLINK_MSG_ID_HEARTBEAT, config.heartbeat_rate_hz),
             (mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, config.position_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, config.position_rate_hz),
             (mavlink.MAVLINK_MSG_ID_ATTITUDE, config.attitude_rate_hz),
             (mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, config.nav_rate_hz),
             (mavlink.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, config.actuator_rate_hz),
@@ -222,6 +235,7 @@ class VehicleLink:
             (mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, config.mission_current_rate_hz),
             (mavlink.MAVLINK_MSG_ID_HOME_POSITION, config.home_rate_hz),
             (mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, config.home_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 0.0),  # off unless asked for (MAVSDK asks)
         ):
             period = 1.0 / rate if rate > 0 else math.inf
             self._streams[msg_id] = _Stream(period, period)
@@ -608,6 +622,8 @@ class VehicleLink:
                 return self._hold(state)
             if sub == PX4_SUB_RTL:
                 return self._abort(state, "mode RTL")
+            if sub == PX4_SUB_READY and _SUB_MODE[state] == PX4_SUB_READY:
+                return mavlink.MAV_RESULT_ACCEPTED  # already in AUTO / READY: nothing to change
             return mavlink.MAV_RESULT_DENIED
         if cmd == mavlink.MAV_CMD_DO_PAUSE_CONTINUE:
             if p[0] == 0.0:
@@ -629,7 +645,10 @@ class VehicleLink:
         if cmd == mavlink.MAV_CMD_REQUEST_MESSAGE:
             msg_id = int(p[0]) if math.isfinite(p[0]) else -1
             return mavlink.MAV_RESULT_ACCEPTED if msg_id in self._requestable() else mavlink.MAV_RESULT_DENIED
-        if cmd == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+        if cmd in (
+            mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+            mavlink.MAV_CMD_GET_HOME_POSITION,
+        ):
             return mavlink.MAV_RESULT_ACCEPTED
         if cmd == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             msg_id = int(p[0]) if math.isfinite(p[0]) else -1
@@ -661,6 +680,8 @@ class VehicleLink:
             self._send_message(int(p[0]))
         elif cmd == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
             self._send_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        elif cmd == mavlink.MAV_CMD_GET_HOME_POSITION:  # deprecated, still sent by MAVProxy
+            self._send_message(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
 
     # ---- parameters ----------------------------------------------------------------------------
     def _param_value(self, name: str) -> mavlink.MAVLink_message:
@@ -761,6 +782,26 @@ class VehicleLink:
         elif msg_id == mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
             vn, ve, vd = _body_to_ned(s)
             m = mavlink.MAVLink_local_position_ned_message(boot_ms, s.x_m, s.y_m, s.depth_m, vn, ve, vd)
+        elif msg_id == mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            c = self.config
+            vn, ve, vd = _body_to_ned(s)
+            lat, lon = local_to_global(s.x_m, s.y_m, self.limits)
+            hdg = math.degrees(s.yaw_rad) % 360.0 if math.isfinite(s.yaw_rad) else math.nan
+            m = mavlink.MAVLink_global_position_int_message(
+                boot_ms,
+                _i(lat * 1e7, -900_000_000, 900_000_000),
+                _i(lon * 1e7, -1_800_000_000, 1_800_000_000),
+                _i((c.origin_alt_m - s.depth_m) * 1000.0, -(2**31), 2**31 - 1),
+                _i(-s.depth_m * 1000.0, -(2**31), 2**31 - 1),
+                _i(vn * 100.0, -32768, 32767),
+                _i(ve * 100.0, -32768, 32767),
+                _i(vd * 100.0, -32768, 32767),
+                _i(hdg * 100.0, 0, 35999) if math.isfinite(hdg) else 65535,
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
+            m = mavlink.MAVLink_extended_sys_state_message(
+                mavlink.MAV_VTOL_STATE_UNDEFINED, mavlink.MAV_LANDED_STATE_UNDEFINED
+            )
         elif msg_id == mavlink.MAVLINK_MSG_ID_ATTITUDE:
             m = mavlink.MAVLink_attitude_message(
                 boot_ms, s.roll_rad, s.pitch_rad, s.yaw_rad, s.p_radps, s.q_radps, s.r_radps

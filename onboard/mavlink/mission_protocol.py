@@ -202,6 +202,14 @@ def item_position(item: MissionItem, limits: MissionLimits) -> tuple[float, floa
     return x_m, y_m, depth_m
 
 
+def local_to_global(x_m: float, y_m: float, limits: MissionLimits) -> tuple[float, float]:
+    """(lat_deg, lon_deg) of a local NED point: the inverse of :func:`item_position`'s projection."""
+    lat_deg = limits.origin_lat_deg + math.degrees(x_m / EARTH_RADIUS_M)
+    east = EARTH_RADIUS_M * math.cos(math.radians(limits.origin_lat_deg))
+    lon_deg = limits.origin_lon_deg + (math.degrees(y_m / east) if east > 1.0 else 0.0)  # 0 at a pole
+    return lat_deg, (lon_deg + 180.0) % 360.0 - 180.0
+
+
 def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq: int | None = None) -> int:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing check on one item.
 
