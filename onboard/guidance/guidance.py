@@ -25,7 +25,6 @@ within ``arrival_yaw_tol_deg`` of the final heading, or its along-track coordina
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -186,22 +185,22 @@ def step(
     ``complete=True`` flies the straight extension beyond the path end at ``complete_speed_mps``.
     """
     dt_s = max(0.0, dt_s) if math.isfinite(dt_s) else 0.0
+    mode = params.mode
     speed = params.complete_speed_mps if complete else params.speed_mps
     length = path.length_m
-    nav_ok = all(math.isfinite(v) for v in (nav.x_m, nav.y_m, nav.yaw_rad))
+    x_a, y_a, yaw_a = nav.x_m, nav.y_m, nav.yaw_rad
+    nav_ok = math.isfinite(x_a) and math.isfinite(y_a) and math.isfinite(yaw_a)
+    lateral_at_proj = mode == "track" and params.lateral == "path"
 
     # Vehicle projection on the (extended) path, local to the previous one.
+    s_prev = state.s_proj_m
     if not nav_ok:
-        s_proj = state.s_proj_m if state.s_proj_m is not None else 0.0
-    elif state.s_proj_m is None:
-        s_proj = project(path, nav.x_m, nav.y_m)
+        s_proj = s_prev if s_prev is not None else 0.0
+    elif s_prev is None:
+        s_proj = project(path, x_a, y_a)
     else:
         s_proj = project(
-            path,
-            nav.x_m,
-            nav.y_m,
-            state.s_proj_m - params.search_back_m,
-            state.s_proj_m + params.search_ahead_m + speed * dt_s,
+            path, x_a, y_a, s_prev - params.search_back_m, s_prev + params.search_ahead_m + speed * dt_s
         )
     proj = sample_extended(path, s_proj)
 
@@ -209,7 +208,7 @@ def step(
     ilos_int = state.ilos_int_m
     s_ref = state.s_ref_m
     ref_speed = speed
-    if params.mode == "track":
+    if mode == "track":
         if complete:
             s_ref = max(s_ref, s_proj)
         if params.reference_accel_mps2 > 0.0:
@@ -220,26 +219,26 @@ def step(
         s_ref = s_proj
         ref = proj
 
-    if nav_ok:
-        e_along, e_cross = path_frame(ref.x_m - nav.x_m, ref.y_m - nav.y_m, ref.yaw_rad)
-        _, cross_track = path_frame(nav.x_m - proj.x_m, nav.y_m - proj.y_m, proj.yaw_rad)
-    else:
-        e_along = e_cross = cross_track = math.nan
-
     yaw_d = ref.yaw_rad
     curvature = ref.curvature_1pm
-    if params.mode == "track" and params.lateral == "path" and nav_ok:
-        # Lateral errors at the vehicle's projection; the reference point sets only the along-track error.
-        e_along = s_ref - s_proj
-        e_cross = -cross_track
-        los_corr = math.atan(e_cross / params.lookahead_m)
-        yaw_d = wrap_pi(proj.yaw_rad + los_corr)
-        curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
-    elif params.mode != "track":
+    if not nav_ok:
+        e_along = e_cross = cross_track = math.nan
+    else:
+        _, cross_track = path_frame(x_a - proj.x_m, y_a - proj.y_m, proj.yaw_rad)
+        if lateral_at_proj:
+            # Lateral errors at the vehicle's projection; the reference point sets only the along-track error.
+            e_along = s_ref - s_proj
+            e_cross = -cross_track
+            los_corr = math.atan(e_cross / params.lookahead_m)
+            yaw_d = wrap_pi(proj.yaw_rad + los_corr)
+            curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
+        else:
+            e_along, e_cross = path_frame(ref.x_m - x_a, ref.y_m - y_a, ref.yaw_rad)
+    if mode != "track":
         e_along = 0.0
         delta = params.lookahead_m
-        sigma = params.ilos_gain if params.mode == "ilos" else 0.0
-        if params.mode == "ilos" and nav_ok:
+        sigma = params.ilos_gain if mode == "ilos" else 0.0
+        if mode == "ilos" and nav_ok:
             ilos_int += dt_s * speed * delta * e_cross / ((e_cross + sigma * ilos_int) ** 2 + delta**2)
             if sigma > 0.0:
                 bound = delta * math.tan(params.ilos_max_correction_rad) / sigma
@@ -249,14 +248,14 @@ def step(
             yaw_d = wrap_pi(ref.yaw_rad + los_corr)
 
     limit = params.cross_error_limit_m
-    if limit > 0.0 and (params.mode != "track" or params.lateral == "path") and math.isfinite(e_cross):
+    if limit > 0.0 and (mode != "track" or params.lateral == "path") and math.isfinite(e_cross):
         e_cross = min(max(e_cross, -limit), limit)
 
-    end = sample_extended(path, length)
+    end = path.sample(length)  # cached by the path
     if nav_ok:
-        dist_end = math.hypot(nav.x_m - end.x_m, nav.y_m - end.y_m)
+        dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
         at_end = dist_end <= params.arrival_position_tol_m and (
-            abs(yaw_error(end.yaw_rad, nav.yaw_rad)) <= params.arrival_yaw_tol_rad
+            abs(yaw_error(end.yaw_rad, yaw_a)) <= params.arrival_yaw_tol_rad
         )
         arrived = state.arrived or at_end or s_proj >= length
     else:
@@ -265,7 +264,7 @@ def step(
 
     slope = depth_rate_per_m(path, ref.s_m)
     reference = GuidanceReference(
-        mode=params.mode,
+        mode=mode,
         s_ref_m=s_ref,
         x_m=ref.x_m,
         y_m=ref.y_m,
@@ -285,17 +284,16 @@ def step(
         e_along_m=e_along,
         e_cross_m=e_cross,
         e_depth_m=ref.depth_m - nav.depth_m,
-        e_yaw_rad=yaw_error(yaw_d, nav.yaw_rad) if nav_ok else math.nan,
+        e_yaw_rad=yaw_error(yaw_d, yaw_a) if nav_ok else math.nan,
         e_pitch_rad=ref.pitch_rad - nav.pitch_rad,
         arrived=arrived,
         complete=complete,
         nav_ok=nav_ok,
     )
-    new_state = dataclasses.replace(
-        state,
+    new_state = GuidanceState(
         t_s=state.t_s + dt_s,
         s_ref_m=s_ref,
-        s_proj_m=s_proj if nav_ok else state.s_proj_m,
+        s_proj_m=s_proj if nav_ok else s_prev,
         ilos_int_m=ilos_int,
         arrived=arrived,
         ref_speed_mps=ref_speed,

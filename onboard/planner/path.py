@@ -32,6 +32,24 @@ class PathSample:
     pitch_rad: float  # flight-path angle of the depth profile, + = nose up (climbing)
 
 
+def _path_sample(
+    s_m: float, x_m: float, y_m: float, yaw_rad: float, curvature_1pm: float, depth_m: float, pitch_rad: float
+) -> PathSample:
+    """``PathSample(...)`` without the frozen dataclass ``__init__``, which sets each field through
+    ``object.__setattr__``: several times cheaper, and guidance samples the path a few times every tick."""
+    sample = object.__new__(PathSample)
+    sample.__dict__.update(
+        s_m=s_m,
+        x_m=x_m,
+        y_m=y_m,
+        yaw_rad=yaw_rad,
+        curvature_1pm=curvature_1pm,
+        depth_m=depth_m,
+        pitch_rad=pitch_rad,
+    )
+    return sample
+
+
 @dataclass(frozen=True)
 class StraightSegment:
     """A straight line from (x0_m, y0_m) along ``yaw_rad`` for ``length_m``."""
@@ -103,13 +121,23 @@ class Path:
     cost: float = 0.0
     # Start pose, used for a zero-length path (start == goal).
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # Derived once (the path is immutable): cumulative arc lengths, the depth slope and path pitch, and the
+    # end sample (guidance asks for it every tick).
     _cum_m: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _depth_slope: float = field(init=False, repr=False, compare=False)
+    _pitch_rad: float = field(init=False, repr=False, compare=False)
+    _end: PathSample = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         cum = [0.0]
         for seg in self.segments:
             cum.append(cum[-1] + seg.length_m)
         object.__setattr__(self, "_cum_m", tuple(cum))
+        length = cum[-1]
+        slope = 0.0 if length <= 0.0 else (self.end_depth_m - self.start_depth_m) / length
+        object.__setattr__(self, "_depth_slope", slope)
+        object.__setattr__(self, "_pitch_rad", -math.atan(slope))
+        object.__setattr__(self, "_end", self._sample(length))
 
     @property
     def length_m(self) -> float:
@@ -118,25 +146,27 @@ class Path:
     @property
     def depth_slope(self) -> float:
         """d(depth)/ds of the linear depth profile (dimensionless, + = diving)."""
-        if self.length_m <= 0.0:
-            return 0.0
-        return (self.end_depth_m - self.start_depth_m) / self.length_m
+        return self._depth_slope
 
     def sample(self, s_m: float) -> PathSample:
         """The reference at arc length ``s_m`` (m), clamped to the path."""
-        length = self.length_m
+        if s_m >= self._cum_m[-1] > 0.0:  # (a zero-length path samples afresh: s_m = -0.0 keeps its sign)
+            return self._end
+        return self._sample(s_m)
+
+    def _sample(self, s_m: float) -> PathSample:
+        length = self._cum_m[-1]
         s = min(max(s_m, 0.0), length)
-        slope = self.depth_slope
-        depth = self.start_depth_m + slope * s
-        pitch = -math.atan(slope)
+        depth = self.start_depth_m + self._depth_slope * s
+        pitch = self._pitch_rad
         if not self.segments:
             x, y, yaw = self.start_pose
-            return PathSample(s, x, y, wrap_pi(yaw), 0.0, depth, pitch)
+            return _path_sample(s, x, y, wrap_pi(yaw), 0.0, depth, pitch)
         i = bisect.bisect_right(self._cum_m, s) - 1
         i = min(max(i, 0), len(self.segments) - 1)
         seg = self.segments[i]
         x, y, yaw, kappa = seg.pose_at(s - self._cum_m[i])
-        return PathSample(s, x, y, yaw, kappa, depth, pitch)
+        return _path_sample(s, x, y, yaw, kappa, depth, pitch)
 
     def segment_start_s(self, index: int) -> float:
         """Arc length (m) at which segment ``index`` starts."""
@@ -145,5 +175,5 @@ class Path:
     @property
     def end_pose(self) -> tuple[float, float, float]:
         """(x_m, y_m, yaw_rad) at the end of the path."""
-        p = self.sample(self.length_m)
+        p = self._end
         return (p.x_m, p.y_m, p.yaw_rad)
