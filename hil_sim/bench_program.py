@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import logging
 import math
@@ -187,13 +188,18 @@ class ActuatorNode:
 
 # --- sensor frames -----------------------------------------------------------------------------------
 def _clip(value: float, lo: float, hi: float) -> float:
-    """A sensor saturates at the end of its frame's range (a NaN reading would be dropped, never sent)."""
+    """A sensor saturates at the end of its frame's range (non-finite readings are dropped before this)."""
     return min(max(value, lo), hi)
 
 
 def sensor_frames(meas: Measurement) -> list[m.BusMessage]:
-    """The bus messages of one measurement (values clipped to the DBC ranges, as a real sensor saturates)."""
+    """The bus messages of one measurement (values clipped to the DBC ranges, as a real sensor saturates).
+
+    A measurement with a non-finite value gives no frame (a real sensor drops an invalid reading).
+    """
     t = meas.t_sample_s
+    if not all(math.isfinite(v) for v in dataclasses.astuple(meas)):
+        return []
     if isinstance(meas, AhrsMeasurement):
         return [
             m.AhrsAttitude(

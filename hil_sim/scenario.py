@@ -219,7 +219,7 @@ def compute_metrics(
         if idx >= near_end - 20 and along_goal >= 0.0:
             # Interpolate to the crossing of the goal line, so the period's sampling adds no error.
             arrival = row
-            if prev is not None and along_goal > prev_along:
+            if prev is not None and prev_along < 0.0 <= along_goal:
                 w = -prev_along / (along_goal - prev_along)
                 arrival = {k: prev[k] + w * (row[k] - prev[k]) for k in row if k != "yaw_deg"}
                 arrival["yaw_deg"] = prev["yaw_deg"] + w * math.degrees(

@@ -143,17 +143,26 @@ class Autopilot:
     goals_reached: int = 0
     events: list[str] = field(default_factory=list)  # transitions since the last take_events()
     autostart_pending: bool = False
+    actuator_failsafe: bool = False  # the latest PROP_STATUS / FIN_STATUS failsafe flag
 
     # --- commands from outside (mission file, MAVLink) ------------------------------------------
     def apply(self, event: MissionEvent, detail: str = "") -> Transition:
         """Apply a mission event; log accepted transitions once, rejected ones with the reason.
 
-        START (and RESUME) need a valid navigation solution: the vehicle does not run blind.
+        START (and RESUME) need a valid navigation solution (the vehicle does not run blind) and an actuator
+        node that is not in its latched failsafe (ARMED sends SAFE, which clears it). An accepted START
+        plans afresh from the current pose; leaving ARMED cancels a pending autostart.
         """
-        if event in (MissionEvent.START, MissionEvent.RESUME) and not (self.last_nav and self.last_nav.valid):
-            reason = f"{event.value} rejected: navigation not valid yet"
-            log.warning("mission event %s", reason)
-            return Transition(self.status, False, reason)
+        if event in (MissionEvent.START, MissionEvent.RESUME):
+            why = ""
+            if not (self.last_nav and self.last_nav.valid):
+                why = "navigation not valid yet"
+            elif self.actuator_failsafe:
+                why = "the actuator node reports its failsafe (the SAFE command sent while ARMED clears it)"
+            if why:
+                reason = f"{event.value} rejected: {why}"
+                log.warning("mission event %s", reason)
+                return Transition(self.status, False, reason)
         goal_count = len(self.mission.goals) if event is MissionEvent.MISSION_REPLACED else None
         result = transition(self.status, event, goal_count=goal_count, detail=detail)
         if result.accepted:
@@ -163,6 +172,11 @@ class Autopilot:
                 )
                 self.events.append(f"{self.status.state.name}->{result.status.state.name}: {result.reason}")
             self.status = result.status
+            if event is MissionEvent.START:
+                self.path = None
+                self.path_goal_index = -1
+            if self.status.state is not MissionState.ARMED:
+                self.autostart_pending = False
         else:
             log.warning("mission event %s rejected: %s", event.value, result.reason)
         return result
@@ -182,8 +196,7 @@ class Autopilot:
 
     def request_autostart(self) -> None:
         """Arm now and start as soon as the navigation solution is valid (``--autostart``)."""
-        self.apply(MissionEvent.ARM, "autostart")
-        self.autostart_pending = True
+        self.autostart_pending = self.apply(MissionEvent.ARM, "autostart").accepted
 
     def set_current(self, index: int) -> bool:
         """Make goal ``index`` the active goal (re-planned at the next tick when running)."""
@@ -209,7 +222,18 @@ class Autopilot:
         cfg = self.config
         nav_state, self.nav_state, _ = nav.step(nav_inputs(cache), self.nav_state, cfg.nav, now_s)
         self.last_nav = nav_state
-        if self.autostart_pending and nav_state.valid and self.status.state is MissionState.ARMED:
+        prop_status = cache.get(m.PropStatus)
+        fin_status = cache.get(m.FinStatus)
+        self.actuator_failsafe = bool(
+            (prop_status is not None and prop_status.failsafe)
+            or (fin_status is not None and fin_status.failsafe)
+        )
+        if (
+            self.autostart_pending
+            and nav_state.valid
+            and not self.actuator_failsafe
+            and self.status.state is MissionState.ARMED
+        ):
             self.autostart_pending = False
             self.apply(MissionEvent.START, "autostart: navigation valid")
 
@@ -221,12 +245,14 @@ class Autopilot:
             fs_flags = result.flags
             if result.abort:
                 self.apply(MissionEvent.FAILSAFE, detail=result.reason)
+            elif self.actuator_failsafe:
+                self.apply(MissionEvent.FAILSAFE, detail="the actuator node is in its failsafe")
 
         reference: GuidanceReference | None = None
         command = NEUTRAL
         state = self.status.state
         if state is _RUNNING or state is _COMPLETE:
-            if state is _RUNNING and self.path_goal_index != self.status.goal_index:
+            if state is _RUNNING and (self.path is None or self.path_goal_index != self.status.goal_index):
                 self._plan_active_goal(nav_state)
             state = self.status.state  # planning may HOLD
             if self.path is not None and (state is _RUNNING or state is _COMPLETE):
@@ -246,8 +272,8 @@ class Autopilot:
                 failsafe.abort_command(cfg.failsafe), self.controller_state.command, cfg.control.limits, dt_s
             )
             self.controller_state = control.ControllerState(command=command)
-        elif not (state is _RUNNING or state is _COMPLETE):
-            # IDLE, ARMED, HOLD: propeller off, fins neutral (rate-limited from the last command).
+        elif not (state is _RUNNING or state is _COMPLETE) or reference is None:
+            # IDLE, ARMED, HOLD (or no path yet): propeller off, fins neutral, rate-limited.
             command = saturate(NEUTRAL, self.controller_state.command, cfg.control.limits, dt_s)
             self.controller_state = control.ControllerState(command=command)
         return StepOutput(
@@ -270,7 +296,6 @@ class Autopilot:
             self.apply(MissionEvent.HOLD, detail=f"no goal {self.status.goal_index} in the mission")
             return
         goal: Goal = self.mission.goals[self.status.goal_index]
-        self.path_goal_index = self.status.goal_index
         self.guidance_state = guidance.GuidanceState()
         self.controller_state = control.ControllerState(command=self.controller_state.command)
         try:
@@ -283,6 +308,7 @@ class Autopilot:
                 goal_depth_m=goal.depth_m,
             )
             self.planner_error = ""
+            self.path_goal_index = self.status.goal_index
             log.info(
                 "planned goal %d: %s, %.2f m, %d virtual goals",
                 self.status.goal_index,
@@ -300,7 +326,8 @@ class Autopilot:
 def _actuator_mode(state: MissionState) -> m.ActuatorMode:
     if state is MissionState.ABORT:
         return m.ActuatorMode.ABORT
-    if state is MissionState.IDLE:
+    if state is MissionState.IDLE or state is MissionState.ARMED:
+        # Propeller off and fins neutral either way; SAFE also clears a latched actuator failsafe.
         return m.ActuatorMode.SAFE
     return m.ActuatorMode.ARMED
 

@@ -18,7 +18,8 @@ from onboard.autopilot import Autopilot, StepOutput
 from onboard.control.actuators import ActuatorFlag
 from onboard.mavlink import api
 from onboard.mavlink.params import ParamSpec
-from onboard.mission.state import MissionEvent
+from onboard.mission.state import MissionEvent, MissionState
+from onboard.protocol.config import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +59,19 @@ def param_specs(ap: Autopilot) -> tuple[ParamSpec, ...]:
 
 
 def apply_param(ap: Autopilot, name: str, value: float) -> bool:
-    """Put one parameter value into the running configuration; False if the name is not ours."""
+    """Put one parameter value into the running configuration.
+
+    False if the name is not ours or the value breaks a rule of the configuration that spans several
+    values (e.g. propeller max above min): the running configuration is then left unchanged.
+    """
+    try:
+        return _apply_param(ap, name, value)
+    except (ConfigError, ValueError) as exc:
+        log.error("parameter %s = %g not applied: %s", name, value, exc)
+        return False
+
+
+def _apply_param(ap: Autopilot, name: str, value: float) -> bool:
     cfg = ap.config
     for gain in GAIN_NAMES:
         if _param_name(gain) == name:
@@ -83,15 +96,22 @@ def apply_param(ap: Autopilot, name: str, value: float) -> bool:
 def apply_event(ap: Autopilot, event: api.VehicleEvent) -> None:
     """Apply one ground-station event to the autopilot (logged on acceptance/rejection by the autopilot)."""
     if isinstance(event, api.MissionReplaced):
-        ap.replace_mission(event.mission)
+        if event.mission != ap.mission:  # the endpoint announces the start-up mission the loop already has
+            ap.replace_mission(event.mission)
     elif isinstance(event, api.Arm):
         ap.apply(MissionEvent.ARM, "MAVLink arm")
     elif isinstance(event, api.Disarm):
         ap.apply(MissionEvent.DISARM, "MAVLink disarm")
     elif isinstance(event, api.StartMission):
-        if event.first_index is not None:
+        state = ap.status.state
+        if state is MissionState.HOLD:
+            ap.apply(MissionEvent.RESUME, "MAVLink mission start (resume)")
+        else:
+            if state is MissionState.COMPLETE:  # fly the mission again: back to ARMED with the same goals
+                ap.replace_mission(ap.mission)
+            ap.apply(MissionEvent.START, "MAVLink mission start")
+        if event.first_index is not None and ap.status.state is MissionState.RUNNING:
             ap.set_current(event.first_index)
-        ap.apply(MissionEvent.START, "MAVLink mission start")
     elif isinstance(event, api.Abort):
         ap.apply(MissionEvent.ABORT, f"MAVLink abort: {event.reason}")
     elif isinstance(event, api.Hold):

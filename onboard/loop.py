@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -171,6 +172,7 @@ class ControlLoop:
         self._csv_file: Any = None
         self._csv: Any = None
         self._last_sync_tick = -1
+        self._last_tick_s = -math.inf
 
     # --- one iteration -------------------------------------------------------------------------
     def take(self, msgs: list[BusMessage], t_rx_s: float | None = None) -> None:
@@ -194,7 +196,11 @@ class ControlLoop:
             log.error("command not encodable (%s); sending neutral SAFE command", exc)
             self.port.send(FinCmd(0.0, 0.0, 0.0, now_s))
             self.port.send(PropCmd(0.0, ActuatorMode.SAFE, now_s))
-        if out.mission_state != self._last_state or now_s >= self._next_heartbeat_s:
+        # Also every tick while the time base stands still (lock-step before the start: the bench waits
+        # for a RUNNING heartbeat, and one lost frame must not stall it).
+        frozen = now_s <= self._last_tick_s
+        self._last_tick_s = now_s
+        if out.mission_state != self._last_state or now_s >= self._next_heartbeat_s or frozen:
             uptime = min(max(now_s - self._t0_s, 0.0), 167772.0)
             self.port.send(OnboardHeartbeat(out.mission_state, round(uptime, 2), now_s))
             self._next_heartbeat_s = now_s + self.config.heartbeat_period_s

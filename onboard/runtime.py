@@ -17,6 +17,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import can
+
 from onboard.autopilot import Autopilot, StepOutput
 from onboard.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
 from onboard.loop import ControlLoop
@@ -173,8 +175,14 @@ def run(
             loop.run_lockstep(stop)
         else:
             loop.run_realtime(stop)
-    except Exception as exc:  # the bus went away (hub stopped, interface down): one clear line, exit 1
+    except (OSError, can.CanError) as exc:  # the bus went away (hub stopped, interface down)
         log.error("bus lost: %s: %s", type(exc).__name__, exc)
+        code = 1
+    except Exception as exc:
+        if type(exc).__name__ != "WebsocketClosed":  # python-can-remote's "hub went away"
+            log.exception("onboard loop stopped by an unexpected error")
+        else:
+            log.error("bus lost: the bench hub closed the connection")
         code = 1
     finally:
         loop.close()

@@ -64,8 +64,8 @@ class GuidanceParams:
       correction over ``lookahead_m``; the reference point then only sets the along-track error). When the
       vehicle lags, "reference" makes it cut corners towards a point already around the bend.
     - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
-      many seconds (at the reference speed) ahead of the projection, so the rudder moves before the arc
-      begins (the fins and the yaw dynamics lag by a fraction of a second).
+      many seconds (at the commanded speed ``speed_mps``) ahead of the projection, so the rudder moves
+      before the arc begins (the fins and the yaw dynamics lag by a fraction of a second).
     - ``cross_error_limit_m``: where the heading reference already carries the cross-track error (LOS,
       ILOS, and ``track`` with ``lateral = "path"``), the cross-track error handed to the controller's
       eq. 9 term is limited to +-this (m; 0 = no limit). Far from the path the LOS heading must win: an

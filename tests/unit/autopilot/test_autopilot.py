@@ -90,3 +90,90 @@ def test_stale_navigation_aborts_with_propeller_off_and_nose_up() -> None:
     assert out.propeller_rps == 0.0
     assert out.stern_port_rad < 0.0 and out.stern_starboard_rad < 0.0  # negative stern = nose up
     assert math.isclose(out.rudder_rad, 0.0, abs_tol=1e-9)
+
+
+def test_armed_sends_safe_and_a_latched_actuator_failsafe_blocks_the_start() -> None:
+    ap = Autopilot(load_config())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
+    ap.apply(MissionEvent.ARM)
+    cache = sensors(0.0)
+    cache[m.PropStatus] = m.PropStatus(0.0, False, True, False, 0, 0.0)  # failsafe latched
+    out = ap.step(cache, 0.0, DT)
+    assert out.mode is m.ActuatorMode.SAFE  # ARMED: propeller off, fins neutral, and it clears the latch
+    assert not ap.apply(MissionEvent.START).accepted
+    cache[m.PropStatus] = m.PropStatus(0.0, False, False, False, 0, 0.05)  # cleared by the SAFE command
+    ap.step(cache, 0.05, DT)
+    assert ap.apply(MissionEvent.START).accepted
+
+
+def test_actuator_failsafe_while_running_aborts() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    cache = sensors(0.05)
+    cache[m.PropStatus] = m.PropStatus(0.0, False, True, False, 0, 0.05)
+    out = ap.step(cache, 0.05, DT)
+    assert out.status.state is MissionState.ABORT and "actuator" in out.status.reason
+
+
+def test_a_new_start_plans_afresh_from_where_the_vehicle_is() -> None:
+    # GIVEN a mission started, aborted, disarmed, then (the vehicle turned) armed and started again
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    first_path = ap.path
+    ap.apply(MissionEvent.ABORT)
+    ap.apply(MissionEvent.DISARM)
+    ap.apply(MissionEvent.ARM)
+    ap.step(sensors(1.0, yaw=1.0), 1.0, DT)
+    assert ap.apply(MissionEvent.START).accepted
+    ap.step(sensors(1.05, yaw=1.0), 1.05, DT)
+    # THEN a new path is planned from the pose at the new start (heading 1 rad), not the old one (north)
+    assert ap.path is not None and ap.path is not first_path
+    assert abs(ap.path.sample(0.0).yaw_rad - 1.0) < 0.01
+
+
+def test_resume_after_a_planning_failure_plans_again() -> None:
+    from onboard.mission.model import Obstacle
+
+    ap = Autopilot(load_config())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),)))
+    ap.request_autostart()
+    ap.step(sensors(0.0), 0.0, DT)
+    assert ap.status.state is MissionState.HOLD
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))  # the operator removes the obstacle
+    assert ap.apply(MissionEvent.RESUME).accepted
+    out = ap.step(sensors(0.05), 0.05, DT)
+    assert out.status.state is MissionState.RUNNING and ap.path is not None and out.propeller_rps > 0.0
+
+
+def test_autostart_is_not_left_pending_when_arming_fails_or_after_abort() -> None:
+    ap = Autopilot(load_config())
+    ap.request_autostart()  # no mission: ARM rejected
+    assert not ap.autostart_pending
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
+    ap.request_autostart()
+    ap.apply(MissionEvent.ABORT)
+    assert not ap.autostart_pending
+
+
+def test_mavlink_start_at_an_item_and_start_in_hold_resumes() -> None:
+    from onboard import link_bridge
+    from onboard.mavlink import api
+
+    ap = Autopilot(load_config())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0))))
+    ap.apply(MissionEvent.ARM)
+    ap.step(sensors(0.0), 0.0, DT)
+    link_bridge.apply_event(ap, api.StartMission(first_index=1))
+    assert ap.status.state is MissionState.RUNNING and ap.status.goal_index == 1
+    ap.apply(MissionEvent.HOLD)
+    link_bridge.apply_event(ap, api.StartMission())
+    assert ap.status.state is MissionState.RUNNING
+
+
+def test_a_parameter_that_breaks_the_configuration_is_refused_not_a_crash() -> None:
+    from onboard import link_bridge
+
+    ap = Autopilot(load_config())
+    before = ap.config
+    assert not link_bridge.apply_param(ap, "LIM_RPS_MAX", 0.0)  # max must stay above min
+    assert ap.config == before
+    assert link_bridge.apply_param(ap, "PD_KP5", -0.5)
+    assert ap.config.control.gains.Kp5 == -0.5
