@@ -114,7 +114,8 @@ class SetCurrent:
 
 @dataclass(frozen=True)
 class ParamChanged:
-    """A parameter has a new value (also emitted once per parameter at start with the persisted values)."""
+    """A parameter has a new value (also emitted at start for each persisted value: each one set away from
+    its default)."""
 
     name: str
     value: float

@@ -244,11 +244,11 @@ class VehicleLink:
         self._budget = float(config.rx_budget_per_s)
         self._budget_t = clock()
         self._last_state: str | None = None
-        # first events for the loop: the stored mission and every parameter value
+        # first events for the loop: the stored mission and the persisted parameter values
         mission = self.missions.mission()
         if mission.goals or mission.obstacles:
             self._events.append(api.MissionReplaced(mission))
-        self._events.extend(api.ParamChanged(n, v) for n, v in self.params.values().items())
+        self._events.extend(api.ParamChanged(n, v) for n, v in self.params.changed().items())
 
     # ---- the loop's API (thread-safe, cheap) ----------------------------------------------------
     def publish(self, snapshot: VehicleSnapshot) -> None:
@@ -722,7 +722,9 @@ class VehicleLink:
             old = self.params.get(name)
             self.params.set(name, value)
             try:
-                self._store.save_params(self.params.values())
+                # Only what differs from the defaults: the defaults are the configuration the vehicle
+                # starts with, so a later edit of onboard.toml is not overridden by stale copies.
+                self._store.save_params(self.params.changed())
             except OSError as exc:
                 self.params.set(name, old)
                 log.error("cannot persist parameters: %s", exc)

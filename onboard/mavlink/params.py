@@ -102,6 +102,11 @@ class ParamTable:
         with self._lock:
             return dict(self._values)
 
+    def changed(self) -> dict[str, float]:
+        """The values that differ from their declared defaults (what is persisted and announced)."""
+        with self._lock:
+            return {s.name: self._values[s.name] for s in self.specs if self._values[s.name] != s.default}
+
     def check(self, name: str, value: float) -> bool:
         """True if ``value`` is acceptable for parameter ``name``."""
         spec = self.spec(name)

@@ -74,3 +74,14 @@ def test_state_store_round_trip_with_nan(tmp_path: Path) -> None:
     assert not list((tmp_path / "state").glob(".*tmp"))
     (tmp_path / "state" / "fence.json").write_text("{broken")
     assert s.load_plan(1) is None
+
+
+def test_only_values_away_from_their_defaults_are_persisted() -> None:
+    from onboard.mavlink.params import ParamSpec, ParamTable
+
+    table = ParamTable((ParamSpec("A", 1.0, 0.0, 2.0, "", "a"), ParamSpec("B", 0.5, 0.0, 2.0, "", "b")))
+    assert table.changed() == {}
+    table.set("A", 1.5)
+    assert table.changed() == {"A": 1.5}
+    table.set("A", 1.0)  # back to the default: nothing to persist
+    assert table.changed() == {}
