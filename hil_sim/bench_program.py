@@ -300,7 +300,6 @@ class Bench:
             cfg.bench.actuator_timeout_periods or params.config.actuators.watchdog_timeout_periods
         )
         self.pending: list[Measurement] = []
-        self.applied = ActuatorCommand()
 
     def idle_measurements(self) -> list[Measurement]:
         """All sensors sampled at the frozen start state (before simulated time starts)."""
@@ -314,7 +313,6 @@ class Bench:
             result = sim_step(self.state, cmd, self.setup, self.rng)
             self.state = result.state
             self.pending.extend(result.measurements)
-            self.applied = result.applied_command
         return cmd
 
     def status_frames(self, t_s: float, rejected_frames: int = 0) -> list[m.BusMessage]:

@@ -50,12 +50,6 @@ UPLOAD_MODES = ("gcs", "file")
 # The bench's log line when the vehicle reports RUNNING and simulated time starts (hil_sim/bench_program.py).
 BENCH_STARTED_LOG = "simulated time starts"
 GCS_START_TIMEOUT_S = 60.0  # wall time for upload + arm + start (the firmware imports and connects first)
-# The paper's numbers (section 5 simulation, section 6 basin experiment), for the comparison table.
-PAPER_RESULTS = {
-    "paper-straight": {"simulation": "0.13 m at goal", "experiment": "< 0.05 m at goal (P_f = [10, 0, 0])"},
-    "paper-turn": {"simulation": "0.2 m (x), 0.4 m (y) at goal", "experiment": "final y error < 0.1 m"},
-    "paper-plan": {"simulation": "path planning only (Fig. 5)", "experiment": "-"},
-}
 
 
 @dataclass(frozen=True)

@@ -247,9 +247,3 @@ def derivatives(state: tuple[float, ...], inputs: tuple[float, ...], c: Coeffici
         dq,
         dr_,
     )
-
-
-def mass_matrix_times(c: Coefficients, nu_dot: tuple[float, ...]) -> tuple[float, ...]:
-    """M nu_dot (N, N m): the left-hand side of eq. 1, for tests that check the equation balance."""
-    mm = c.mass_matrix
-    return tuple(sum(mm[6 * i + j] * nu_dot[j] for j in range(6)) for i in range(6))

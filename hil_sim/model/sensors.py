@@ -62,8 +62,6 @@ class PositionFix:
 
 Measurement = AhrsMeasurement | DepthMeasurement | DvlMeasurement | PositionFix
 
-SENSOR_NAMES = ("ahrs", "depth", "dvl", "fix")
-
 
 @dataclass(frozen=True, slots=True)
 class SensorSchedule:
