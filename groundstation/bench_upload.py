@@ -1,6 +1,7 @@
 """Benchmark: mission upload time of 10 and 100 goals over loopback, clean and through a 20 % loss relay.
 
-The vehicle side runs as a real process (``python -m onboard.mavlink.standalone``: the endpoint with a fake
+The vehicle side runs as a real process (``python -m onboard.adapters.mavlink.standalone``: the endpoint
+with a fake
 loop); this module only talks MAVLink to it. ``run()`` returns seconds per upload (median) and counts;
 it measures and prints, it asserts nothing. ``python -m groundstation.bench_upload [--quick] [--json]``.
 """
@@ -25,8 +26,15 @@ from groundstation.relay import LossyRelay
 def start_vehicle(state_dir: Path, timeout_s: float = 10.0) -> tuple[subprocess.Popen[str], int]:
     """Start the standalone vehicle endpoint; returns the process and its UDP port."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "onboard.mavlink.standalone", "--endpoint", "udpin:127.0.0.1:0", "--state-dir",
-         str(state_dir)],
+        [
+            sys.executable,
+            "-m",
+            "onboard.adapters.mavlink.standalone",
+            "--endpoint",
+            "udpin:127.0.0.1:0",
+            "--state-dir",
+            str(state_dir),
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

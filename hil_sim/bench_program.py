@@ -34,6 +34,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from auv_common.cli import join_negative_values
+from auv_common.config import ConfigError, from_table, load_toml, require
 from hil_sim.model.actuators import (
     ActuatorCommand,
     WatchdogState,
@@ -50,9 +52,7 @@ from hil_sim.model.sim import SimSetup, SimState, initial_state, make_setup
 from hil_sim.model.sim import step as sim_step
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BenchHub, BusConfig, BusUnavailable, open_bus
-from onboard.protocol.cli import join_negative_values
 from onboard.protocol.codec import Codec
-from onboard.protocol.config import ConfigError, from_table, load_toml, require
 from onboard.protocol.port import BusPort
 
 log = logging.getLogger("hil_sim")

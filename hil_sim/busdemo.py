@@ -1,6 +1,6 @@
 """The bus demo: the bench hosts the CAN hub, a second real process answers SYNCs with protected frames.
 
-The bench (this process) sends SYNC frames at ``rate_hz``; the peer (``python -m onboard.protocol.busdemo
+The bench (this process) sends SYNC frames at ``rate_hz``; the peer (``python -m onboard.bench.busdemo
 echo``, a separate process connected through the python-can-remote hub on 127.0.0.1) answers each with
 FIN_CMD, PROP_CMD and SYNC_ACK, as the onboard does in lock-step. The bench checks every answer (E2E counter
 and CRC, tick echo) and reports the round-trip times.
@@ -45,7 +45,7 @@ def run_bus_demo(count: int = 200, rate_hz: float = 100.0, timeout_s: float = 30
         hub.local_bus(), time.monotonic, [codec.frame_id(m) for m in (FinCmd, PropCmd, SyncAck)], codec
     )
     peer = subprocess.Popen(
-        [sys.executable, "-m", "onboard.protocol.busdemo", "echo", "--channel", url, "--count", str(count)],
+        [sys.executable, "-m", "onboard.bench.busdemo", "echo", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,
         text=True,
     )

@@ -15,8 +15,8 @@ import threading
 
 import can
 
+from auv_common.config import ConfigError
 from onboard.protocol.bus import DEFAULT_HUB_CHANNEL, DEFAULT_REMOTE_CHANNEL, BenchHub
-from onboard.protocol.config import ConfigError
 
 log = logging.getLogger("hil_sim.replay")
 

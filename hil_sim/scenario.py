@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from onboard.protocol.cli import join_negative_values
+from auv_common.cli import join_negative_values
 from onboard.protocol.conventions import wrap_pi
 
 DEPTH_M = 1.0

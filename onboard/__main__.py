@@ -21,11 +21,11 @@ The ISiMI100 onboard firmware.
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "plan":
-        from onboard.planner.cli import main as plan_main
+        from onboard.app.plan_cli import main as plan_main
 
         return plan_main(argv[1:])
     if argv and argv[0] == "run":
-        from onboard.runtime import main as run_main
+        from onboard.app.runtime import main as run_main
 
         return run_main(argv[1:])
     parser = argparse.ArgumentParser(

@@ -1,7 +1,7 @@
 """Vehicle parameters: the TOML file into frozen dataclasses, and the derived ISiMI100 model constants.
 
 ``load_params()`` reads ``hil_sim/params/isimi100.toml`` strictly (unknown keys and bad values raise
-:class:`onboard.protocol.config.ConfigError`) and derives, in code:
+:class:`auv_common.config.ConfigError`) and derives, in code:
 
 - hull volume, centre of buoyancy and inertia from the Myring numbers (:mod:`hil_sim.model.hull`);
 - mass from the volume and the buoyancy margin (W = (1 - margin) * rho g nabla);
@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from auv_common.config import ConfigError, from_table, load_toml, require
 from hil_sim.model.hull import HullProperties, MyringHull, hull_properties
-from onboard.protocol.config import ConfigError, from_table, load_toml, require
 
 DEFAULT_PARAMS_PATH = Path(__file__).resolve().parent.parent / "params" / "isimi100.toml"
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from onboard.protocol.cli import run_bench_sections
+from auv_common.cli import run_bench_sections
 
 # section name -> module with ``run(quick) -> dict[str, float]``
 SECTIONS = {

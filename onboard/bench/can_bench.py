@@ -46,7 +46,7 @@ def _latency(rate_hz: float, count: int) -> dict[str, float]:
     url = f"ws://127.0.0.1:{hub.port}/"
     port = BusPort(hub.local_bus(), time.monotonic)
     peer = subprocess.Popen(
-        [sys.executable, "-m", "onboard.protocol.busdemo", "record", "--channel", url, "--count", str(count)],
+        [sys.executable, "-m", "onboard.bench.busdemo", "record", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,
         text=True,
     )

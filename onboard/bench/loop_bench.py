@@ -3,8 +3,9 @@
 ``run(quick)`` returns the flat section ``loop`` (unit-suffixed names, merged by ``auv-bench``). It measures
 and reports; it asserts nothing about time. Two parts:
 
-(a) **Tick compute** of :meth:`onboard.loop.ControlLoop.tick` with the real
-    :class:`onboard.autopilot.Autopilot` (the default ``onboard/config/onboard.toml``), a one-goal mission
+(a) **Tick compute** of :meth:`onboard.app.loop.ControlLoop.tick` with the real
+    :class:`onboard.core.autopilot.Autopilot` (the default ``onboard/config/onboard.toml``), a one-goal
+    mission
     RUNNING with its path already planned (planning excluded: the ticks up to and including the planning one
     are warm-up, not timed), on a python-can ``virtual`` bus. Each tick a sensor node on the same virtual
     channel sends a realistic set of frames (AHRS attitude + rates, depth, DVL, position fix, fin and
@@ -43,17 +44,17 @@ import time
 from dataclasses import dataclass
 from typing import Any, cast
 
-from onboard.autopilot import Autopilot, StepOutput
-from onboard.config import OnboardConfig, load_config
-from onboard.loop import ControlLoop, LoopConfig
-from onboard.mission.model import Goal, Mission
-from onboard.mission.state import MissionState
+from onboard.app.config import OnboardConfig, load_config
+from onboard.app.loop import ControlLoop, LoopConfig
+from onboard.core.autopilot import Autopilot, StepOutput
+from onboard.core.mission.model import Goal, Mission
+from onboard.core.mission.state import MissionState
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BusConfig, open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
-# The frames the onboard node listens to (as in onboard.runtime; SYNC is not sent here).
+# The frames the onboard node listens to (as in onboard.app.runtime; SYNC is not sent here).
 _LISTEN = (m.AhrsAttitude, m.AhrsRates, m.DepthMeas, m.DvlVelocity, m.PositionFix, m.FinStatus, m.PropStatus)
 
 # (a): start and goal of the timed mission: a turn, then a long straight, so the whole timed run is RUNNING.
@@ -154,7 +155,7 @@ def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> di
         codec,
     )
     sensor_port = BusPort(open_bus(BusConfig(interface="virtual", channel=channel)), clock, (), Codec())
-    autopilot = Autopilot(cfg)
+    autopilot = Autopilot(cfg.core)
     autopilot.replace_mission(Mission((_GOAL,)))
     autopilot.request_autostart()  # starts at the first tick with a valid navigation solution
     timed = _TimedAutopilot(autopilot)

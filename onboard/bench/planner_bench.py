@@ -16,7 +16,7 @@ import random
 import statistics
 import time
 
-from onboard.planner import PlannerConfig, PlannerError, inflate, plan
+from onboard.core.planner import PlannerConfig, PlannerError, inflate, plan
 
 OBSTACLE_COUNTS = (0, 5, 20, 50)
 AREA_M = 120.0

@@ -28,7 +28,7 @@ from urllib.parse import urlparse
 
 import can
 
-from onboard.protocol.config import ConfigError, require
+from auv_common.config import ConfigError, require
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,8 @@
 """Fly a scenario in one process: the real bench loop and the real onboard loop on a `virtual` bus, lock-step.
 
 The bench (:func:`hil_sim.bench_program.run_bench`) runs in a thread; the onboard
-(:class:`onboard.loop.ControlLoop` with the real :class:`onboard.autopilot.Autopilot`) runs in another. Both
+(:class:`onboard.app.loop.ControlLoop` with the real :class:`onboard.core.autopilot.Autopilot`) runs in
+another. Both
 use exactly the code paths of the programs; only the bus is ``virtual`` (its own channel per run).
 """
 
@@ -18,14 +19,14 @@ from can.interfaces.virtual import VirtualBus
 
 from hil_sim.bench_program import BenchConfig, HilConfig, InitialConfig, WaterCurrentConfig, run_bench
 from hil_sim.scenario import DEPTH_M, SCENARIOS, compute_metrics, read_truth
-from onboard.autopilot import Autopilot
-from onboard.config import load_config
-from onboard.loop import ControlLoop
-from onboard.mission.model import Goal, Mission
-from onboard.planner.planner import plan
+from onboard.app.config import load_config
+from onboard.app.loop import ControlLoop
+from onboard.app.runtime import LISTEN
+from onboard.core.autopilot import Autopilot
+from onboard.core.mission.model import Goal, Mission
+from onboard.core.planner.planner import plan
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
-from onboard.runtime import LISTEN
 
 _ids = itertools.count()
 
@@ -84,7 +85,7 @@ def fly(
         guidance=guidance_cfg,
         control=dataclasses.replace(cfg.control, profile=controller),  # type: ignore[arg-type]
     )
-    autopilot = Autopilot(cfg)
+    autopilot = Autopilot(cfg.core)
     autopilot.replace_mission(Mission((Goal(sc.goal[0], sc.goal[1], DEPTH_M, math.radians(sc.goal[2])),)))
     autopilot.request_autostart()
     codec = Codec()

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from groundstation.mavclient import MavClient
-from onboard.mavlink.config import MavlinkConfig
-from onboard.mavlink.endpoint import VehicleLink
-from onboard.mavlink.standalone import FakeLoop
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.endpoint import VehicleLink
+from onboard.adapters.mavlink.standalone import FakeLoop
 
 
 class Vehicle:

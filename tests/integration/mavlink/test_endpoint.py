@@ -12,9 +12,9 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.mavclient import MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item, obstacle_item
-from onboard.mavlink import api
-from onboard.mavlink.endpoint import CAPABILITIES, VehicleLink
-from onboard.mission.model import Goal, Mission
+from onboard.adapters.mavlink import api
+from onboard.adapters.mavlink.endpoint import CAPABILITIES, VehicleLink
+from onboard.core.mission.model import Goal, Mission
 from tests.integration.mavlink.conftest import Vehicle
 
 GOALS = [goal_item(10.0, 0.0, 1.0, None), goal_item(10.0, 10.0, 2.0, 90.0)]

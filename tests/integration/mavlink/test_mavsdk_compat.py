@@ -20,7 +20,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.mavclient import MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item
-from onboard.mavlink.mission_protocol import (
+from onboard.adapters.mavlink.mission_protocol import (
     MissionItem,
     MissionLimits,
     item_position,

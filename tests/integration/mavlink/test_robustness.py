@@ -178,7 +178,7 @@ def test_standalone_rejects_bad_config(tmp_path: Path) -> None:
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[mavlink]\nno_such_key = 1\n")
     r = subprocess.run(
-        [sys.executable, "-m", "onboard.mavlink.standalone", "--config", str(cfg)],
+        [sys.executable, "-m", "onboard.adapters.mavlink.standalone", "--config", str(cfg)],
         capture_output=True, text=True, timeout=30,
     )  # fmt: skip
     assert r.returncode == 2 and "no_such_key" in r.stderr

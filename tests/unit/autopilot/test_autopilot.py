@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
-from onboard.autopilot import Autopilot
-from onboard.config import load_config
-from onboard.mission.model import Goal, Mission
-from onboard.mission.state import MissionEvent, MissionState
+from onboard.app.config import load_config
+from onboard.core.autopilot import Autopilot
+from onboard.core.mission.model import Goal, Mission
+from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.protocol import messages as m
 
 DT = 0.05
@@ -27,7 +27,7 @@ def sensors(
 
 
 def started(goals: tuple[Goal, ...]) -> Autopilot:
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission(goals))
     ap.request_autostart()
     ap.step(sensors(0.0), 0.0, DT)
@@ -36,7 +36,7 @@ def started(goals: tuple[Goal, ...]) -> Autopilot:
 
 def test_autostart_waits_for_valid_navigation() -> None:
     # GIVEN an armed autostart and no sensor data yet
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
     out = ap.step({}, 0.0, DT)
@@ -48,7 +48,7 @@ def test_autostart_waits_for_valid_navigation() -> None:
 
 
 def test_start_is_refused_without_navigation() -> None:
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.apply(MissionEvent.ARM)
     assert not ap.apply(MissionEvent.START).accepted
@@ -69,9 +69,9 @@ def test_resume_into_a_mission_without_goals_holds_instead_of_crashing() -> None
 
 def test_unreachable_goal_holds_with_the_planner_reason() -> None:
     # GIVEN a goal inside an obstacle (the planner refuses it)
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), ()))
-    from onboard.mission.model import Obstacle
+    from onboard.core.mission.model import Obstacle
 
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),)))
     ap.request_autostart()
@@ -93,7 +93,7 @@ def test_stale_navigation_aborts_with_propeller_off_and_nose_up() -> None:
 
 
 def test_armed_sends_safe_and_a_latched_actuator_failsafe_blocks_the_start() -> None:
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.apply(MissionEvent.ARM)
     cache = sensors(0.0)
@@ -130,9 +130,9 @@ def test_a_new_start_plans_afresh_from_where_the_vehicle_is() -> None:
 
 
 def test_resume_after_a_planning_failure_plans_again() -> None:
-    from onboard.mission.model import Obstacle
+    from onboard.core.mission.model import Obstacle
 
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),)))
     ap.request_autostart()
     ap.step(sensors(0.0), 0.0, DT)
@@ -144,7 +144,7 @@ def test_resume_after_a_planning_failure_plans_again() -> None:
 
 
 def test_autostart_is_not_left_pending_when_arming_fails_or_after_abort() -> None:
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.request_autostart()  # no mission: ARM rejected
     assert not ap.autostart_pending
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
@@ -154,10 +154,10 @@ def test_autostart_is_not_left_pending_when_arming_fails_or_after_abort() -> Non
 
 
 def test_mavlink_start_at_an_item_and_start_in_hold_resumes() -> None:
-    from onboard import link_bridge
-    from onboard.mavlink import api
+    from onboard.adapters.mavlink import api
+    from onboard.adapters.mavlink import bridge as link_bridge
 
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0))))
     ap.apply(MissionEvent.ARM)
     ap.step(sensors(0.0), 0.0, DT)
@@ -169,9 +169,9 @@ def test_mavlink_start_at_an_item_and_start_in_hold_resumes() -> None:
 
 
 def test_a_parameter_that_breaks_the_configuration_is_refused_not_a_crash() -> None:
-    from onboard import link_bridge
+    from onboard.adapters.mavlink import bridge as link_bridge
 
-    ap = Autopilot(load_config())
+    ap = Autopilot(load_config().core)
     before = ap.config
     assert not link_bridge.apply_param(ap, "LIM_RPS_MAX", 0.0)  # max must stay above min
     assert ap.config == before

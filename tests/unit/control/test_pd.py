@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from onboard.control import (
+from auv_common.config import ConfigError, from_table
+from onboard.core.control import (
     ActuatorFlag,
     ControllerState,
     ControlParams,
@@ -15,11 +16,10 @@ from onboard.control import (
     PaperGains,
     step,
 )
-from onboard.guidance import GuidanceParams, GuidanceReference, GuidanceState
-from onboard.guidance import step as guidance_step
-from onboard.nav import nav_state_at
-from onboard.planner.path import ArcSegment, Path, StraightSegment
-from onboard.protocol.config import ConfigError, from_table
+from onboard.core.guidance import GuidanceParams, GuidanceReference, GuidanceState
+from onboard.core.guidance import step as guidance_step
+from onboard.core.nav import nav_state_at
+from onboard.core.planner.path import ArcSegment, Path, StraightSegment
 from tests.unit.control.toy_plant import ToyState, toy_nav, toy_step
 
 PAPER = ControlParams(profile="paper")

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from onboard.control import NEUTRAL, ActuatorCommand, ActuatorFlag, ActuatorLimits, saturate
+from onboard.core.control import NEUTRAL, ActuatorCommand, ActuatorFlag, ActuatorLimits, saturate
 
 LIM = ActuatorLimits(fin_rate_limit_degps=0.0, propeller_rate_limit_rps_per_s=0.0)  # no rate limits
 DEG = math.radians(1.0)

@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from onboard.control import ActuatorCommand
-from onboard.nav import NavState, nav_state_at
+from onboard.core.control import ActuatorCommand
+from onboard.core.nav import NavState, nav_state_at
 
 RPS_PER_MPS = 25.0 / 1.6  # matches the placeholder speed map
 YAW_GAIN = 1.07  # r_ss = -YAW_GAIN * U * rudder: with 1 rad*m of rudder per curvature, r = U * kappa

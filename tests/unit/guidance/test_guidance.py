@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from onboard.guidance import GuidanceParams, GuidanceState, path_frame, project, sample_extended, step
-from onboard.nav import nav_state_at
-from onboard.planner.path import ArcSegment, Path, StraightSegment
+from onboard.core.guidance import GuidanceParams, GuidanceState, path_frame, project, sample_extended, step
+from onboard.core.nav import nav_state_at
+from onboard.core.planner.path import ArcSegment, Path, StraightSegment
 from onboard.protocol.conventions import wrap_pi
 
 DT = 0.05

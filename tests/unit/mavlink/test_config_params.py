@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from onboard.mavlink.config import MavlinkConfig, load_signing_key
-from onboard.mavlink.mission_protocol import TYPE_MISSION, MissionItem
-from onboard.mavlink.params import DEFAULT_PARAMS, ParamTable
-from onboard.mavlink.persistence import StateStore
-from onboard.protocol.config import ConfigError
+from auv_common.config import ConfigError
+from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
+from onboard.adapters.mavlink.mission_protocol import TYPE_MISSION, MissionItem
+from onboard.adapters.mavlink.params import DEFAULT_PARAMS, ParamTable
+from onboard.adapters.mavlink.persistence import StateStore
 
 
 def test_defaults_and_table() -> None:
@@ -77,7 +77,7 @@ def test_state_store_round_trip_with_nan(tmp_path: Path) -> None:
 
 
 def test_only_values_away_from_their_defaults_are_persisted() -> None:
-    from onboard.mavlink.params import ParamSpec, ParamTable
+    from onboard.adapters.mavlink.params import ParamSpec, ParamTable
 
     table = ParamTable((ParamSpec("A", 1.0, 0.0, 2.0, "", "a"), ParamSpec("B", 0.5, 0.0, 2.0, "", "b")))
     assert table.changed() == {}

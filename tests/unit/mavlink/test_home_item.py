@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from onboard.mavlink import api
-from onboard.mavlink.api import VehicleSnapshot
-from onboard.mavlink.config import MavlinkConfig
-from onboard.mavlink.endpoint import VehicleLink
-from onboard.mavlink.mission_protocol import (
+from onboard.adapters.mavlink import api
+from onboard.adapters.mavlink.api import VehicleSnapshot
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.endpoint import VehicleLink
+from onboard.adapters.mavlink.mission_protocol import (
     TYPE_FENCE,
     TYPE_MISSION,
     MissionItem,
@@ -26,7 +26,7 @@ from onboard.mavlink.mission_protocol import (
     mission_from_items,
     seq_of_goal,
 )
-from onboard.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.persistence import StateStore
 
 from .test_mission_protocol import GCS, LIMITS, count_msg, item_msg, only, upload, wp
 

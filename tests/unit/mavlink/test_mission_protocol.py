@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
-from onboard.mavlink.mission_protocol import (
+from onboard.adapters.mavlink.mission_protocol import (
     TYPE_FENCE,
     TYPE_MISSION,
     MissionItem,

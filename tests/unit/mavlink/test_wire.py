@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
-from onboard.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
+from onboard.adapters.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
 
 KEY = bytes(range(32))
 

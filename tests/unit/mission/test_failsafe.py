@@ -7,16 +7,16 @@ import math
 
 import pytest
 
-from onboard.control import ActuatorLimits, saturate
-from onboard.mission.failsafe import (
+from auv_common.config import ConfigError, from_table
+from onboard.core.control import ActuatorLimits, saturate
+from onboard.core.nav import NavCondition, NavState, nav_state_at
+from onboard.core.safety.failsafe import (
     FailsafeFlag,
     FailsafeParams,
     FailsafeState,
     abort_command,
     check,
 )
-from onboard.nav import NavCondition, NavState, nav_state_at
-from onboard.protocol.config import ConfigError, from_table
 
 P = FailsafeParams(max_depth_m=10.0, area_x_min_m=-50, area_x_max_m=50, area_y_min_m=-20, area_y_max_m=20)
 OK = nav_state_at(0.0, 0.0, 1.0)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from onboard.mission.state import MissionEvent, MissionState, MissionStatus, transition
+from onboard.core.mission.state import MissionEvent, MissionState, MissionStatus, transition
 
 S, E = MissionState, MissionEvent
 

@@ -7,7 +7,8 @@ import random
 
 import pytest
 
-from onboard.nav import (
+from auv_common.config import ConfigError, from_table
+from onboard.core.nav import (
     NAV_BLOCKING,
     Ahrs,
     Depth,
@@ -20,7 +21,6 @@ from onboard.nav import (
     PositionFix,
     step,
 )
-from onboard.protocol.config import ConfigError, from_table
 
 P = NavParams()
 DT = 0.05

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from onboard.planner import ArcSegment, Path
+from onboard.core.planner import ArcSegment, Path
 
 
 def ang_diff(a: float, b: float) -> float:

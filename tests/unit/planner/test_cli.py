@@ -11,7 +11,7 @@ from pathlib import Path as FsPath
 
 import pytest
 
-from onboard.planner.cli import main
+from onboard.app.plan_cli import main
 
 ROOT = FsPath(__file__).resolve().parents[3]
 
@@ -138,7 +138,7 @@ def test_runs_as_module() -> None:
         [
             sys.executable,
             "-m",
-            "onboard.planner.cli",
+            "onboard.app.plan_cli",
             "--start",
             "-15,5,0",
             "--goal=10,-2,270",
@@ -155,7 +155,7 @@ def test_runs_as_module() -> None:
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["length_m"] > 0.0
     bad = subprocess.run(
-        [sys.executable, "-m", "onboard.planner.cli", "--start", "0,0", "--goal", "1,1,1", "--radius", "2"],
+        [sys.executable, "-m", "onboard.app.plan_cli", "--start", "0,0", "--goal", "1,1,1", "--radius", "2"],
         cwd=ROOT,
         capture_output=True,
         text=True,

@@ -13,7 +13,7 @@ from pathlib import Path as FsPath
 
 import pytest
 
-from onboard.planner import PlannerConfig, dubins, plan
+from onboard.core.planner import PlannerConfig, dubins, plan
 
 DATA = FsPath(__file__).resolve().parents[2] / "data"
 WORDS = ("LSL", "LSR", "RSL", "RSR", "RLR", "LRL")
@@ -42,7 +42,7 @@ EDGE = _rows("dubins_edge_cases.csv")
 def _end_circles_coincide(
     start: tuple[float, float, float], goal: tuple[float, float, float], r: float, turn: int
 ) -> bool:
-    from onboard.planner.geometry import circle_center
+    from onboard.core.planner.geometry import circle_center
 
     c0 = circle_center(*start, r, turn)
     c1 = circle_center(*goal, r, turn)

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from onboard.planner import PlannerConfig, PlannerConfigError, PlannerError, candidates, inflate, plan
-from onboard.planner.cost import cost_terms, rudder_rad
-from onboard.protocol.config import ConfigError, from_table
+from auv_common.config import ConfigError, from_table
+from onboard.core.planner import PlannerConfig, PlannerConfigError, PlannerError, candidates, inflate, plan
+from onboard.core.planner.cost import cost_terms, rudder_rad
 
 from .helpers import check_continuity, check_ends, min_clearance_analytic, min_clearance_dense
 
@@ -55,7 +55,7 @@ def test_bad_turning_radius_is_a_planner_and_config_error(bad: float) -> None:
         PlannerConfig(turning_radius_m=bad)
     assert info.value.reason == "radius"
     assert isinstance(info.value, ConfigError)
-    from onboard.planner import dubins
+    from onboard.core.planner import dubins
 
     with pytest.raises(PlannerError, match="radius"):
         dubins.all_words((0, 0, 0), (1, 1, 1), bad)
@@ -186,7 +186,7 @@ def test_depth_error_says_why_and_how_much() -> None:
 
 
 def test_mission_obstacles_are_accepted() -> None:
-    from onboard.mission.model import Obstacle
+    from onboard.core.mission.model import Obstacle
 
     path = plan((0.0, 0.0, 0.0), (40.0, 0.0, 0.0), CFG, [Obstacle(20.0, 0.5, 3.0)])
     assert path.length_m > 40.0

@@ -7,7 +7,7 @@ import math
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from onboard.planner import PlannerConfig, PlannerError, dubins, inflate, plan
+from onboard.core.planner import PlannerConfig, PlannerError, dubins, inflate, plan
 
 from .helpers import (
     check_continuity,

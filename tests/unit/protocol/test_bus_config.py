@@ -6,8 +6,8 @@ import time
 
 import pytest
 
+from auv_common.config import ConfigError, from_table
 from onboard.protocol.bus import BusConfig, BusUnavailable, check_multicast_route_via_lo, open_bus
-from onboard.protocol.config import ConfigError, from_table
 from onboard.protocol.messages import FinCmd
 from onboard.protocol.port import BusPort
 

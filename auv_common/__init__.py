@@ -1,0 +1,1 @@
+"""Configuration loading and CLI helpers shared by the three programs (no I/O beyond files)."""

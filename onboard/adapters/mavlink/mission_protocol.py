@@ -1,0 +1,629 @@
+"""The MAVLink mission micro-service, vehicle side, as a pure state machine (no sockets, no clock).
+
+Spec: https://mavlink.io/en/services/mission.html. Upload is MISSION_COUNT -> MISSION_REQUEST_INT per item ->
+MISSION_ITEM_INT -> MISSION_ACK; the vehicle never sends the deprecated MISSION_REQUEST, but understands a
+legacy MISSION_ITEM and answers a legacy MISSION_REQUEST with MISSION_ITEM_INT (as the spec asks).
+
+- A missing item is re-requested every ``item_timeout_s`` (0.25 s); after ``upload_timeout_s`` (5 s) without
+  progress the upload is cancelled (MISSION_ACK OPERATION_CANCELLED) and the stored plan is unchanged.
+- Out-of-sequence items are dropped and the expected item re-requested (not an error).
+- One uploader at a time: another sender gets MAV_MISSION_DENIED; every reply is addressed to the sender.
+- Each item is checked on its own; the first failing check ends the upload with its MAV_MISSION code and the
+  stored plan is unchanged. Only a complete, valid upload replaces the stored plan (atomically, through the
+  ``commit`` callback, which persists it before the ACK is sent).
+- A re-sent last item after the final ACK is answered with the same ACK again, without side effects.
+- Download is stateless: MISSION_REQUEST_LIST -> MISSION_COUNT; each MISSION_REQUEST_INT / MISSION_REQUEST
+  is answered with MISSION_ITEM_INT (or MISSION_ACK INVALID_SEQUENCE).
+
+Positions: ``MAV_FRAME_LOCAL_NED`` with x, y = metres * 1e4 (MISSION_ITEM_INT) and z = depth (m); the global
+frames (GLOBAL, GLOBAL_INT, GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT: lat/lon * 1e7) are converted to the
+local frame about the configured origin with a flat-earth projection, and depth = -altitude (as ArduSub
+does; for the AMSL frames the altitude is taken relative to the origin's altitude). Yaw (param4) is in
+degrees, NaN = the planner's choice.
+
+Home item (ArduPilot's convention, as MAVProxy ``wp load`` and Mission Planner send a QGC WPL 110 file): a
+MISSION-type item at **seq 0** in an absolute-altitude global frame (``MAV_FRAME_GLOBAL`` or
+``MAV_FRAME_GLOBAL_INT``) with ``MAV_CMD_NAV_WAYPOINT`` is the home placeholder, see :func:`is_home_item`.
+It is not flown, so it is not checked against the operating area or the depth range (MAVProxy sends lat/lon
+0/0); only validity is checked (lat within +-90 deg -> else INVALID_PARAM5_X, lon within +-180 deg -> else
+INVALID_PARAM6_Y, param1..4 NaN or finite -> else INVALID_PARAMn, altitude finite -> else INVALID_PARAM7).
+It is stored as sent (download returns it unchanged, persistence keeps it) but is not a goal: the goals are
+the items after it. Every other item, including a seq-0 item in a relative-altitude or local frame, is a
+goal. With a home item, MAVLink seq = goal index + 1 (:func:`home_offset`, :func:`seq_of_goal`,
+:func:`goal_of_seq`); without one they are equal. A seq that names the home item maps to goal 0 (the first
+item that is flown, as ArduPilot starts a mission at its first command after home). Our own ground station
+never sends a home item.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import astuple, dataclass, field
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.core.mission.model import Goal, Mission, Obstacle
+from onboard.protocol.conventions import wrap_pi
+
+LOCAL_SCALE = 1e4  # MISSION_ITEM_INT local x/y: metres * 1e4
+GLOBAL_SCALE = 1e7  # MISSION_ITEM_INT global lat/lon: degrees * 1e7
+EARTH_RADIUS_M = 6_378_137.0
+INT32_MAX = 2**31 - 1
+
+TYPE_MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+TYPE_FENCE = mavlink.MAV_MISSION_TYPE_FENCE
+TYPE_RALLY = mavlink.MAV_MISSION_TYPE_RALLY
+TYPE_ALL = mavlink.MAV_MISSION_TYPE_ALL
+
+FRAME_LOCAL = mavlink.MAV_FRAME_LOCAL_NED
+GLOBAL_FRAMES_AMSL = (mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT)
+GLOBAL_FRAMES_REL = (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+SUPPORTED_FRAMES = (FRAME_LOCAL, *GLOBAL_FRAMES_AMSL, *GLOBAL_FRAMES_REL)
+# legacy float frames are stored as their _INT twins
+_LEGACY_FRAME_TO_INT = {
+    mavlink.MAV_FRAME_GLOBAL: mavlink.MAV_FRAME_GLOBAL_INT,
+    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+}
+
+Sender = tuple[int, int]
+CommitFn = Callable[[int, tuple["MissionItem", ...]], None]
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    """One stored mission item, in MISSION_ITEM_INT encoding (x, y integers; z float)."""
+
+    frame: int
+    command: int
+    param1: float
+    param2: float
+    param3: float
+    param4: float
+    x: int
+    y: int
+    z: float
+    autocontinue: int = 1
+
+    def key(self) -> tuple[str, ...]:
+        """A comparison key in which NaN equals NaN."""
+        return tuple(repr(v) for v in astuple(self))
+
+    def to_json(self) -> dict[str, float | int | None]:
+        """JSON-safe dict (NaN as None)."""
+        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in self.__dict__.items()}
+
+    @classmethod
+    def from_json(cls, d: dict[str, float | int | None]) -> MissionItem:
+        def f(name: str) -> float:
+            v = d[name]
+            return math.nan if v is None else float(v)
+
+        return cls(
+            frame=int(d["frame"] or 0),
+            command=int(d["command"] or 0),
+            param1=f("param1"),
+            param2=f("param2"),
+            param3=f("param3"),
+            param4=f("param4"),
+            x=int(d["x"] or 0),
+            y=int(d["y"] or 0),
+            z=f("z"),
+            autocontinue=int(d.get("autocontinue") or 0),
+        )
+
+
+@dataclass(frozen=True)
+class MissionLimits:
+    """What the vehicle accepts: operating area (m), depth (m), capacities and the local origin."""
+
+    area_half_m: float = 500.0
+    max_depth_m: float = 100.0
+    max_goals: int = 1000
+    max_fence_items: int = 64
+    origin_lat_deg: float = 35.1
+    origin_lon_deg: float = 129.04
+    origin_alt_m: float = 0.0
+    item_timeout_s: float = 0.25
+    upload_timeout_s: float = 5.0
+
+
+class PlanRefused(Exception):
+    """Raised by a commit callback that refuses a complete, valid plan now (answered MAV_MISSION_ERROR)."""
+
+
+def _is_nan_or_finite(v: float) -> bool:
+    return math.isnan(v) or math.isfinite(v)
+
+
+HOME_FRAMES = GLOBAL_FRAMES_AMSL  # absolute altitude only, as ArduPilot stores home
+
+
+def is_home_item(item: MissionItem, seq: int, mission_type: int = TYPE_MISSION) -> bool:
+    """True if ``item`` at ``seq`` is the ArduPilot-style home placeholder (see the module docstring)."""
+    return (
+        mission_type == TYPE_MISSION
+        and seq == 0
+        and item.frame in HOME_FRAMES
+        and item.command == mavlink.MAV_CMD_NAV_WAYPOINT
+    )
+
+
+def check_home_item(item: MissionItem) -> int:
+    """Validity checks of a home item (no operating-area or depth check: it is not flown)."""
+    if abs(item.x) > 90 * GLOBAL_SCALE:
+        return mavlink.MAV_MISSION_INVALID_PARAM5_X
+    if abs(item.y) > 180 * GLOBAL_SCALE:
+        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+    for value, code in (
+        (item.param1, mavlink.MAV_MISSION_INVALID_PARAM1),
+        (item.param2, mavlink.MAV_MISSION_INVALID_PARAM2),
+        (item.param3, mavlink.MAV_MISSION_INVALID_PARAM3),
+        (item.param4, mavlink.MAV_MISSION_INVALID_PARAM4),
+    ):
+        if not _is_nan_or_finite(value):
+            return code
+    if not math.isfinite(item.z):
+        return mavlink.MAV_MISSION_INVALID_PARAM7
+    return mavlink.MAV_MISSION_ACCEPTED
+
+
+def home_offset(items: tuple[MissionItem, ...] | list[MissionItem]) -> int:
+    """1 if the stored MISSION plan ``items`` starts with a home item, else 0 (seq = goal index + offset)."""
+    return 1 if items and is_home_item(items[0], 0) else 0
+
+
+def goal_items(items: tuple[MissionItem, ...]) -> tuple[MissionItem, ...]:
+    """The items of a MISSION plan that are goals (all but a leading home item)."""
+    return items[home_offset(items) :]
+
+
+def seq_of_goal(index: int, offset: int) -> int:
+    """The MAVLink mission seq of goal ``index`` (``offset`` from :func:`home_offset`)."""
+    return index + offset
+
+
+def goal_of_seq(seq: int, offset: int, n_goals: int) -> int | None:
+    """The goal index of MAVLink mission ``seq``; the home seq 0 maps to goal 0; None if out of range."""
+    index = max(seq - offset, 0) if seq >= 0 else -1
+    return index if 0 <= index < n_goals else None
+
+
+def item_position(item: MissionItem, limits: MissionLimits) -> tuple[float, float, float]:
+    """(x_m north, y_m east, depth_m) of an item in the local NED frame about the origin."""
+    if item.frame == FRAME_LOCAL:
+        return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE, item.z
+    lat_deg = item.x / GLOBAL_SCALE
+    lon_deg = item.y / GLOBAL_SCALE
+    dlon = (lon_deg - limits.origin_lon_deg + 180.0) % 360.0 - 180.0
+    x_m = math.radians(lat_deg - limits.origin_lat_deg) * EARTH_RADIUS_M
+    y_m = math.radians(dlon) * EARTH_RADIUS_M * math.cos(math.radians(limits.origin_lat_deg))
+    depth_m = -(item.z - limits.origin_alt_m) if item.frame in GLOBAL_FRAMES_AMSL else -item.z
+    return x_m, y_m, depth_m
+
+
+def local_to_global(x_m: float, y_m: float, limits: MissionLimits) -> tuple[float, float]:
+    """(lat_deg, lon_deg) of a local NED point: the inverse of :func:`item_position`'s projection."""
+    lat_deg = limits.origin_lat_deg + math.degrees(x_m / EARTH_RADIUS_M)
+    east = EARTH_RADIUS_M * math.cos(math.radians(limits.origin_lat_deg))
+    lon_deg = limits.origin_lon_deg + (math.degrees(y_m / east) if east > 1.0 else 0.0)  # 0 at a pole
+    return lat_deg, (lon_deg + 180.0) % 360.0 - 180.0
+
+
+def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq: int | None = None) -> int:
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing check on one item.
+
+    With ``seq`` given, a home item at seq 0 (:func:`is_home_item`) gets :func:`check_home_item` instead.
+    """
+    if seq is not None and is_home_item(item, seq, mission_type):
+        return check_home_item(item)
+    if mission_type == TYPE_MISSION:
+        if item.command != mavlink.MAV_CMD_NAV_WAYPOINT:
+            return mavlink.MAV_MISSION_UNSUPPORTED
+    elif mission_type == TYPE_FENCE:
+        if item.command != mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION:
+            return mavlink.MAV_MISSION_UNSUPPORTED
+    else:
+        return mavlink.MAV_MISSION_UNSUPPORTED
+    if item.frame not in SUPPORTED_FRAMES:
+        return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+    if mission_type == TYPE_MISSION:
+        # param1 hold time (s), param2 acceptance radius (m): NaN or finite >= 0; param3 pass radius
+        if not (math.isnan(item.param1) or (math.isfinite(item.param1) and item.param1 >= 0.0)):
+            return mavlink.MAV_MISSION_INVALID_PARAM1
+        if not (math.isnan(item.param2) or (math.isfinite(item.param2) and item.param2 >= 0.0)):
+            return mavlink.MAV_MISSION_INVALID_PARAM2
+        if not _is_nan_or_finite(item.param3):
+            return mavlink.MAV_MISSION_INVALID_PARAM3
+        if not (math.isnan(item.param4) or -360.0 <= item.param4 <= 360.0):
+            return mavlink.MAV_MISSION_INVALID_PARAM4
+    else:
+        radius = item.param1
+        if not (math.isfinite(radius) and 0.0 < radius <= 2.0 * limits.area_half_m):
+            return mavlink.MAV_MISSION_INVALID_PARAM1
+    if item.frame != FRAME_LOCAL:
+        if abs(item.x) > 90 * GLOBAL_SCALE:
+            return mavlink.MAV_MISSION_INVALID_PARAM5_X
+        if abs(item.y) > 180 * GLOBAL_SCALE:
+            return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+    x_m, y_m, depth_m = item_position(item, limits)
+    if not abs(x_m) <= limits.area_half_m:
+        return mavlink.MAV_MISSION_INVALID_PARAM5_X
+    if not abs(y_m) <= limits.area_half_m:
+        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+    if mission_type == TYPE_MISSION and not (0.0 <= depth_m <= limits.max_depth_m):
+        return mavlink.MAV_MISSION_INVALID_PARAM7
+    return mavlink.MAV_MISSION_ACCEPTED
+
+
+def goal_from_item(item: MissionItem, limits: MissionLimits) -> Goal:
+    """The goal pose of a checked waypoint item (yaw degrees -> radians, NaN -> None)."""
+    x_m, y_m, depth_m = item_position(item, limits)
+    yaw_rad = None if math.isnan(item.param4) else wrap_pi(math.radians(item.param4))
+    return Goal(x_m=x_m, y_m=y_m, depth_m=depth_m, yaw_rad=yaw_rad)
+
+
+def obstacle_from_item(item: MissionItem, limits: MissionLimits) -> Obstacle:
+    """The obstacle circle of a checked fence item (param1 = radius, m)."""
+    x_m, y_m, _ = item_position(item, limits)
+    return Obstacle(x_m=x_m, y_m=y_m, radius_m=item.param1)
+
+
+def mission_from_items(
+    items: tuple[MissionItem, ...], fences: tuple[MissionItem, ...], limits: MissionLimits
+) -> Mission:
+    """Combine the stored mission and fence plans into one :class:`Mission` (a home item is no goal)."""
+    return Mission(
+        goals=tuple(goal_from_item(i, limits) for i in goal_items(items)),
+        obstacles=tuple(obstacle_from_item(i, limits) for i in fences),
+    )
+
+
+def items_from_mission(mission: Mission) -> tuple[tuple[MissionItem, ...], tuple[MissionItem, ...]]:
+    """Local-frame items for a :class:`Mission` (used for a ``--mission`` file given at start)."""
+    goals = tuple(
+        MissionItem(
+            frame=FRAME_LOCAL,
+            command=mavlink.MAV_CMD_NAV_WAYPOINT,
+            param1=0.0,
+            param2=math.nan,
+            param3=0.0,
+            param4=math.nan if g.yaw_rad is None else math.degrees(g.yaw_rad),
+            x=round(g.x_m * LOCAL_SCALE),
+            y=round(g.y_m * LOCAL_SCALE),
+            z=g.depth_m,
+        )
+        for g in mission.goals
+    )
+    fences = tuple(
+        MissionItem(
+            frame=FRAME_LOCAL,
+            command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+            param1=o.radius_m,
+            param2=0.0,
+            param3=0.0,
+            param4=0.0,
+            x=round(o.x_m * LOCAL_SCALE),
+            y=round(o.y_m * LOCAL_SCALE),
+            z=0.0,
+        )
+        for o in mission.obstacles
+    )
+    return goals, fences
+
+
+def item_from_message(msg: mavlink.MAVLink_message) -> MissionItem | None:
+    """A :class:`MissionItem` from MISSION_ITEM_INT or legacy MISSION_ITEM (None if unrepresentable)."""
+    if msg.get_type() == "MISSION_ITEM_INT":
+        x, y, frame = int(msg.x), int(msg.y), int(msg.frame)
+    else:  # legacy float MISSION_ITEM: local metres as-is, global degrees as-is
+        frame = _LEGACY_FRAME_TO_INT.get(int(msg.frame), int(msg.frame))
+        scale = LOCAL_SCALE if frame == FRAME_LOCAL else GLOBAL_SCALE
+        fx, fy = float(msg.x) * scale, float(msg.y) * scale
+        if not (math.isfinite(fx) and math.isfinite(fy)):
+            return None
+        x = max(-INT32_MAX, min(INT32_MAX, round(fx)))
+        y = max(-INT32_MAX, min(INT32_MAX, round(fy)))
+    return MissionItem(
+        frame=frame,
+        command=int(msg.command),
+        param1=float(msg.param1),
+        param2=float(msg.param2),
+        param3=float(msg.param3),
+        param4=float(msg.param4),
+        x=x,
+        y=y,
+        z=float(msg.z),
+        autocontinue=int(msg.autocontinue),
+    )
+
+
+@dataclass
+class _Upload:
+    sender: Sender
+    mission_type: int
+    count: int
+    last_rx_s: float
+    last_req_s: float
+    items: list[MissionItem] = field(default_factory=list)
+
+
+@dataclass
+class MissionStats:
+    """Counters of the mission service (read by tests and SYS_STATUS)."""
+
+    uploads_accepted: int = 0
+    uploads_rejected: int = 0
+    uploads_cancelled: int = 0
+    rerequests: int = 0
+    out_of_sequence: int = 0
+    denied: int = 0
+    stray_items: int = 0
+    acks_resent: int = 0
+
+
+class MissionServer:
+    """Vehicle side of the mission protocol for the MISSION and FENCE plan types.
+
+    ``handle(msg, sender, now_s)`` and ``poll(now_s)`` return the messages to send (already addressed);
+    ``now_s`` is a monotonic wall-clock time. ``commit(mission_type, items)`` is called with a complete
+    valid plan before its ACK; if it raises (a persistence error, or :class:`PlanRefused`), the upload is
+    answered with MAV_MISSION_ERROR and the stored plan is unchanged. After a successful commit,
+    :meth:`take_changed` reports that the plan changed.
+    """
+
+    def __init__(
+        self,
+        limits: MissionLimits,
+        own: Sender = (1, 1),
+        stored: dict[int, tuple[MissionItem, ...]] | None = None,
+        commit: CommitFn | None = None,
+    ) -> None:
+        self.limits = limits
+        self.own = own
+        self._plans: dict[int, tuple[MissionItem, ...]] = {TYPE_MISSION: (), TYPE_FENCE: ()}
+        if stored:
+            self._plans.update({k: v for k, v in stored.items() if k in self._plans})
+        self._commit = commit
+        self._upload: _Upload | None = None
+        self._last_done: tuple[Sender, int, int, MissionItem] | None = None
+        self._changed = False
+        self.stats = MissionStats()
+
+    # ---- queries -------------------------------------------------------------------------------
+    def items(self, mission_type: int) -> tuple[MissionItem, ...]:
+        """The stored plan of one type."""
+        return self._plans.get(mission_type, ())
+
+    @property
+    def upload_in_progress(self) -> bool:
+        return self._upload is not None
+
+    def mission(self) -> Mission:
+        """The stored mission and fence as one :class:`Mission`."""
+        return mission_from_items(self._plans[TYPE_MISSION], self._plans[TYPE_FENCE], self.limits)
+
+    def home_offset(self) -> int:
+        """1 if the stored MISSION plan starts with a home item (MAVLink seq = goal index + 1), else 0."""
+        return home_offset(self._plans[TYPE_MISSION])
+
+    def goal_count(self) -> int:
+        """The number of goals in the stored MISSION plan (a home item is not counted)."""
+        return len(self._plans[TYPE_MISSION]) - self.home_offset()
+
+    def take_changed(self) -> bool:
+        """True once after each change of the stored plans."""
+        changed, self._changed = self._changed, False
+        return changed
+
+    def replace(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
+        """Replace a plan outside the protocol (e.g. ``--mission`` at start); no commit callback."""
+        self._plans[mission_type] = items
+        self._changed = True
+
+    # ---- protocol ------------------------------------------------------------------------------
+    def _for_us(self, msg: mavlink.MAVLink_message) -> bool:
+        ts = int(getattr(msg, "target_system", 0))
+        tc = int(getattr(msg, "target_component", 0))
+        return ts in (0, self.own[0]) and tc in (0, self.own[1])
+
+    def _ack(self, sender: Sender, result: int, mission_type: int) -> mavlink.MAVLink_message:
+        return mavlink.MAVLink_mission_ack_message(sender[0], sender[1], result, mission_type)
+
+    def _request(self, up: _Upload) -> mavlink.MAVLink_message:
+        return mavlink.MAVLink_mission_request_int_message(
+            up.sender[0], up.sender[1], len(up.items), up.mission_type
+        )
+
+    def handle(
+        self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float
+    ) -> list[mavlink.MAVLink_message]:
+        """React to one mission-protocol message from ``sender``; other messages give []."""
+        kind = msg.get_type()
+        if kind not in _HANDLED or not self._for_us(msg):
+            return []
+        if kind == "MISSION_COUNT":
+            return self._on_count(msg, sender, now_s)
+        if kind in ("MISSION_ITEM_INT", "MISSION_ITEM"):
+            return self._on_item(msg, sender, now_s)
+        if kind == "MISSION_REQUEST_LIST":
+            mt = int(msg.mission_type)
+            if mt not in (TYPE_MISSION, TYPE_FENCE, TYPE_RALLY):
+                return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
+            return [mavlink.MAVLink_mission_count_message(sender[0], sender[1], len(self.items(mt)), mt)]
+        if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+            return self._on_download_request(msg, sender)
+        if kind == "MISSION_CLEAR_ALL":
+            return self._on_clear(msg, sender)
+        return []  # MISSION_ACK from a downloader: nothing to do (download is stateless)
+
+    def _on_count(
+        self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float
+    ) -> list[mavlink.MAVLink_message]:
+        mt, count = int(msg.mission_type), int(msg.count)
+        up = self._upload
+        if up is not None and up.sender != sender:
+            self.stats.denied += 1
+            return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+        if mt not in (TYPE_MISSION, TYPE_FENCE):
+            self.stats.uploads_rejected += 1
+            return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
+        if up is not None and up.mission_type == mt and up.count == count and not up.items:
+            # the GCS repeated MISSION_COUNT because our first request was lost: request again
+            up.last_req_s = now_s
+            self.stats.rerequests += 1
+            return [self._request(up)]
+        self._upload = None  # a new MISSION_COUNT from the uploader restarts its upload
+        capacity = self.limits.max_goals if mt == TYPE_MISSION else self.limits.max_fence_items
+        if count > capacity:
+            self.stats.uploads_rejected += 1
+            return [self._ack(sender, mavlink.MAV_MISSION_NO_SPACE, mt)]
+        if count == 0:  # an empty upload clears the plan
+            return [self._ack(sender, self._store(mt, ()), mt)]
+        self._upload = _Upload(sender, mt, count, last_rx_s=now_s, last_req_s=now_s)
+        return [self._request(self._upload)]
+
+    def _store(self, mission_type: int, items: tuple[MissionItem, ...]) -> int:
+        try:
+            if self._commit is not None:
+                self._commit(mission_type, items)
+        except Exception:  # persistence failed or the plan was refused: keep the old plan, tell the GCS
+            self.stats.uploads_rejected += 1
+            return int(mavlink.MAV_MISSION_ERROR)
+        self._plans[mission_type] = items
+        self._changed = True
+        self.stats.uploads_accepted += 1
+        return int(mavlink.MAV_MISSION_ACCEPTED)
+
+    def _on_item(
+        self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float
+    ) -> list[mavlink.MAVLink_message]:
+        mt, seq = int(msg.mission_type), int(msg.seq)
+        up = self._upload
+        if up is None:
+            done = self._last_done
+            item = item_from_message(msg)
+            if (
+                done is not None
+                and item is not None
+                and done[0] == sender
+                and done[1] == mt
+                and seq == done[2] - 1
+                and done[3].key() == item.key()
+            ):
+                self.stats.acks_resent += 1  # our final ACK was lost: answer again, change nothing
+                return [self._ack(sender, mavlink.MAV_MISSION_ACCEPTED, mt)]
+            self.stats.stray_items += 1
+            return []
+        if up.sender != sender:
+            self.stats.denied += 1
+            return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+        if mt != up.mission_type or seq != len(up.items):
+            if seq >= up.count and mt == up.mission_type:
+                self._upload = None
+                self.stats.uploads_rejected += 1
+                return [self._ack(sender, mavlink.MAV_MISSION_INVALID_SEQUENCE, mt)]
+            self.stats.out_of_sequence += 1  # dropped; ask again for the one we need
+            up.last_req_s = now_s
+            return [self._request(up)]
+        item = item_from_message(msg)
+        result = (
+            mavlink.MAV_MISSION_INVALID_PARAM5_X if item is None else check_item(item, mt, self.limits, seq)
+        )
+        if result != mavlink.MAV_MISSION_ACCEPTED or item is None:
+            self._upload = None
+            self.stats.uploads_rejected += 1
+            return [self._ack(sender, result, mt)]
+        up.items.append(item)
+        up.last_rx_s = now_s
+        up.last_req_s = now_s
+        if len(up.items) < up.count:
+            return [self._request(up)]
+        self._upload = None
+        result = self._store(mt, tuple(up.items))
+        if result == mavlink.MAV_MISSION_ACCEPTED:
+            self._last_done = (sender, mt, up.count, item)
+        return [self._ack(sender, result, mt)]
+
+    def _on_download_request(
+        self, msg: mavlink.MAVLink_message, sender: Sender
+    ) -> list[mavlink.MAVLink_message]:
+        mt, seq = int(msg.mission_type), int(msg.seq)
+        items = self.items(mt)
+        if seq >= len(items):
+            return [self._ack(sender, mavlink.MAV_MISSION_INVALID_SEQUENCE, mt)]
+        it = items[seq]
+        return [
+            mavlink.MAVLink_mission_item_int_message(
+                sender[0],
+                sender[1],
+                seq,
+                it.frame,
+                it.command,
+                0,
+                it.autocontinue,
+                it.param1,
+                it.param2,
+                it.param3,
+                it.param4,
+                it.x,
+                it.y,
+                it.z,
+                mt,
+            )
+        ]
+
+    def _on_clear(self, msg: mavlink.MAVLink_message, sender: Sender) -> list[mavlink.MAVLink_message]:
+        mt = int(msg.mission_type)
+        types = (TYPE_MISSION, TYPE_FENCE) if mt == TYPE_ALL else (mt,)
+        if any(t not in (TYPE_MISSION, TYPE_FENCE) for t in types):
+            return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
+        up = self._upload
+        if up is not None and up.mission_type in types:
+            if up.sender != sender:
+                self.stats.denied += 1
+                return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+            self._upload = None  # the uploader itself clears: its upload ends
+        result = int(mavlink.MAV_MISSION_ACCEPTED)
+        for t in types:
+            if self._plans[t]:
+                result = self._store(t, ())
+                if result != mavlink.MAV_MISSION_ACCEPTED:
+                    break
+        return [self._ack(sender, result, mt)]
+
+    def poll(self, now_s: float) -> list[mavlink.MAVLink_message]:
+        """Timers: re-request the missing item, or cancel a stalled upload."""
+        up = self._upload
+        if up is None:
+            return []
+        if now_s - up.last_rx_s >= self.limits.upload_timeout_s:
+            self._upload = None
+            self.stats.uploads_cancelled += 1
+            return [self._ack(up.sender, mavlink.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)]
+        if now_s - up.last_req_s >= self.limits.item_timeout_s:
+            up.last_req_s = now_s
+            self.stats.rerequests += 1
+            return [self._request(up)]
+        return []
+
+    def next_deadline(self) -> float | None:
+        """Monotonic time at which :meth:`poll` has something to do (None = nothing pending)."""
+        up = self._upload
+        if up is None:
+            return None
+        return min(up.last_req_s + self.limits.item_timeout_s, up.last_rx_s + self.limits.upload_timeout_s)
+
+
+_HANDLED = frozenset(
+    {
+        "MISSION_COUNT",
+        "MISSION_ITEM_INT",
+        "MISSION_ITEM",
+        "MISSION_REQUEST_LIST",
+        "MISSION_REQUEST_INT",
+        "MISSION_REQUEST",
+        "MISSION_CLEAR_ALL",
+        "MISSION_ACK",
+    }
+)

@@ -1,0 +1,1 @@
+"""The onboard program: configuration, the control loop (time and bus) and start-up."""

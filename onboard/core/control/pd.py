@@ -1,0 +1,297 @@
+"""The revised PD controller of the paper (section 4.2, eqs. 8-10), in two profiles.
+
+    rps = (Kp1 e_x + KD1 de_x/dt) + (Kp2 e_y + KD2 de_y/dt) + (Kp3 e_z + KD3 de_z/dt)                  (8)
+    dR  = (Kp4 e_x + KD4 de_x/dt) + (Kp5 e_y + KD5 de_y/dt) + (Kp6 e_psi + KD6 de_psi/dt)              (9)
+    dS  = (Kp7 e_z + KD7 de_z/dt) + (Kp8 e_theta + KD8 de_theta/dt)                                   (10)
+
+with e = x_d - x_a (eq. 4). e_x, e_y are the along-track and cross-track errors resolved in the path frame
+at the reference point (:mod:`onboard.core.guidance`), so the gains hold at any heading; for a path
+along +x they
+are the paper's e_x, e_y exactly. e_z = depth_d - depth_a (+ = must go deeper), e_psi = wrap(psi_d - psi_a)
+(+ = must turn right), e_theta = theta_d - theta_a (+ = must pitch nose up).
+
+Units (the paper gives none; this is our reading): errors in m and rad, their rates in m/s and rad/s; outputs
+propeller speed in rev/s and fin angles in rad. So Kp1 is rps/m, KD1 rps/(m/s), Kp5 rad/m, Kp6 rad/rad,
+KD6 rad/(rad/s), Kp7 rad/m, Kp8 rad/rad, and so on.
+
+Signs, with +rudder = turn to port and +stern = nose down (``onboard/protocol/conventions.py``):
+
+- rps from e_x: reference ahead (e_x > 0) needs more thrust: Kp1, KD1 > 0.
+- rudder from e_y: path to starboard (e_y > 0) needs a right turn = negative rudder: Kp5, KD5 < 0.
+- rudder from e_psi: e_psi > 0 needs a right turn = negative rudder: Kp6, KD6 < 0.
+- stern from e_z: must go deeper (e_z > 0) needs nose down = positive stern: Kp7, KD7 > 0.
+- stern from e_theta: must pitch up (e_theta > 0) needs nose up = negative stern: Kp8, KD8 < 0.
+- rps from e_z: the vehicle is positively buoyant, so going deeper needs more speed (plane authority):
+  Kp3, KD3 >= 0.
+- rps from e_y (Kp2, KD2) and rudder from e_x (Kp4, KD4): the error's sign does not say which way to act
+  (being left of the path needs no more or less thrust; lagging the reference needs no turn either way), so
+  no sign stabilises them and both profiles set them to 0. The slots stay in the config.
+
+Derivatives (``derivative`` key): ``difference`` = (e_k - e_{k-1}) / dt_s (yaw difference wrapped) with an
+optional first-order low-pass ``derivative_tau_s``; ``rates`` = the same for e_x, e_y, but
+de_psi/dt = r_d - r, de_theta/dt = q_d - q and de_z/dt = depth_rate_d - depth_rate from the measured rates
+(no differentiation noise). The first step and dt_s = 0 give derivative 0 (first step) or hold the last one.
+
+Profile ``improved`` adds: the propeller feed-forward rps_ff = speed_map(U_d) (linear interpolation in the
+``speed_map_mps`` / ``speed_map_rps`` table; PLACEHOLDER 25 rps at 1.6 m/s until the simulator's table is
+copied in), the yaw-rate feed-forward on arcs dR_ff = -rudder_per_curvature_radm * r_d / U_d (= -K *
+curvature: the steady-turn rudder; PLACEHOLDER K until the simulator's steady-turn table is copied in), and
+roll damping with the split stern: roll differential = roll_kp * phi + roll_kd * p (a positive differential
+rolls to port, see :mod:`onboard.core.control.actuators`).
+
+Pure: ``step(nav, reference, state, params, dt_s) -> (command, new_state, debug)``. Saturation and rate limits
+happen in :func:`onboard.core.control.actuators.saturate` only. Any NaN -> neutral command with ``NAN_INPUT``.
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from auv_common.config import require
+from onboard.core.control.actuators import ActuatorCommand, ActuatorFlag, ActuatorLimits, saturate
+from onboard.core.guidance.guidance import GuidanceReference
+from onboard.core.nav.types import NavState
+from onboard.protocol.conventions import stern_split, wrap_pi
+
+DerivativeSource = Literal["difference", "rates"]
+ProfileName = Literal["paper", "improved"]
+
+
+@dataclass(frozen=True)
+class PdGains:
+    """The 16 gains of eqs. 8-10 (named as in the paper) and the extras of the ``improved`` profile.
+
+    Units: see the module docstring (errors m / rad, outputs rps / rad). Feed-forward:
+    ``feedforward`` turns on the propeller speed map and the curvature rudder; ``speed_map_mps`` ->
+    ``speed_map_rps`` (strictly increasing speeds, same length); ``rudder_per_curvature_radm`` (rad * m);
+    ``roll_kp`` (rad/rad), ``roll_kd`` (rad/(rad/s)); ``derivative`` and ``derivative_tau_s`` (s).
+    """
+
+    Kp1: float = 0.0
+    KD1: float = 0.0
+    Kp2: float = 0.0
+    KD2: float = 0.0
+    Kp3: float = 0.0
+    KD3: float = 0.0
+    Kp4: float = 0.0
+    KD4: float = 0.0
+    Kp5: float = 0.0
+    KD5: float = 0.0
+    Kp6: float = 0.0
+    KD6: float = 0.0
+    Kp7: float = 0.0
+    KD7: float = 0.0
+    Kp8: float = 0.0
+    KD8: float = 0.0
+    feedforward: bool = False
+    speed_map_mps: tuple[float, ...] = (0.0, 1.6)
+    speed_map_rps: tuple[float, ...] = (0.0, 25.0)
+    rudder_per_curvature_radm: float = 0.0
+    roll_kp: float = 0.0
+    roll_kd: float = 0.0
+    derivative: DerivativeSource = "difference"
+    derivative_tau_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        m, r = self.speed_map_mps, self.speed_map_rps
+        require(len(m) >= 2 and len(m) == len(r), "speed map needs >= 2 rows of equal length")
+        require(all(b > a for a, b in itertools.pairwise(m)), "speed_map_mps must be strictly increasing")
+        require(all(x >= 0.0 for x in r), "speed_map_rps must be >= 0")
+        require(self.derivative_tau_s >= 0.0, "derivative_tau_s must be >= 0")
+        require(self.rudder_per_curvature_radm >= 0.0, "rudder_per_curvature_radm must be >= 0")
+
+    def speed_to_rps(self, speed_mps: float) -> float:
+        """Propeller feed-forward: linear interpolation of the speed map, clamped at its ends (rev/s)."""
+        m, r = self.speed_map_mps, self.speed_map_rps
+        if speed_mps <= m[0]:
+            return r[0]
+        if speed_mps >= m[-1]:
+            # Extrapolate along the last row's slope: the map's end is not a speed limit (saturate is).
+            slope = (r[-1] - r[-2]) / (m[-1] - m[-2])
+            return r[-1] + slope * (speed_mps - m[-1])
+        i = bisect.bisect_right(m, speed_mps) - 1
+        f = (speed_mps - m[i]) / (m[i + 1] - m[i])
+        return r[i] + f * (r[i + 1] - r[i])
+
+
+@dataclass(frozen=True)
+class PaperGains(PdGains):
+    """``[control.paper]``: the paper's structure and gains |Kp| = 2, |KD| = 4 (section 5), each sign the one
+    that stabilises its channel (module docstring); no feed-forward, derivatives by differences."""
+
+    Kp1: float = 2.0
+    KD1: float = 4.0
+    Kp3: float = 2.0
+    KD3: float = 4.0
+    Kp5: float = -2.0
+    KD5: float = -4.0
+    Kp6: float = -2.0
+    KD6: float = -4.0
+    Kp7: float = 2.0
+    KD7: float = 4.0
+    Kp8: float = -2.0
+    KD8: float = -4.0
+
+
+@dataclass(frozen=True)
+class ImprovedGains(PdGains):
+    """``[control.improved]``: our gains (tuned on the unit tests' toy models; retune on the simulator) with
+    feed-forward, measured-rate derivatives and roll damping."""
+
+    Kp1: float = 2.0
+    KD1: float = 1.0
+    Kp5: float = -0.3
+    KD5: float = -0.3
+    Kp6: float = -1.0
+    KD6: float = -0.5
+    Kp7: float = 0.5
+    KD7: float = 0.5
+    Kp8: float = -1.0
+    KD8: float = -0.5
+    feedforward: bool = True
+    # PLACEHOLDER (linear, ~1.6 m/s at 25 rps): replace with the simulator's steady-speed table.
+    speed_map_mps: tuple[float, ...] = (0.0, 1.6)
+    speed_map_rps: tuple[float, ...] = (0.0, 25.0)
+    # PLACEHOLDER: steady-turn rudder per curvature, rad*m (e.g. 2/3 of the rudder limit * r_min).
+    rudder_per_curvature_radm: float = 1.0
+    roll_kp: float = 0.3
+    roll_kd: float = 0.1
+    derivative: DerivativeSource = "rates"
+    derivative_tau_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class ControlParams:
+    """The ``[control]`` table: ``profile`` selects ``[control.paper]`` or ``[control.improved]`` (each
+    sub-table starts from its own defaults, so a partial table changes only what it names);
+    ``[control.limits]`` holds the actuator limits (:class:`ActuatorLimits`)."""
+
+    profile: ProfileName = "improved"
+    paper: PaperGains = field(default_factory=PaperGains)
+    improved: ImprovedGains = field(default_factory=ImprovedGains)
+    limits: ActuatorLimits = field(default_factory=ActuatorLimits)
+
+    @property
+    def gains(self) -> PdGains:
+        """The gains of the selected profile."""
+        return self.paper if self.profile == "paper" else self.improved
+
+
+@dataclass(frozen=True)
+class ControllerState:
+    """The controller's memory: previous errors, filtered derivatives and the previous (sent) command."""
+
+    errors: tuple[float, float, float, float, float] | None = None  # e_x, e_y, e_z, e_psi, e_theta
+    derivatives: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    command: ActuatorCommand = field(default_factory=lambda: ActuatorCommand(0.0, 0.0, 0.0, 0.0))
+
+
+@dataclass(frozen=True)
+class ControlDebug:
+    """Per-step terms for telemetry: errors, their derivatives, each P and D term, feed-forwards, raw command.
+
+    ``terms`` maps "P1".."P8" and "D1".."D8" to the term values (rps or rad), in the paper's numbering.
+    """
+
+    errors: tuple[float, float, float, float, float]
+    derivatives: tuple[float, float, float, float, float]
+    terms: dict[str, float]
+    rps_ff: float
+    rudder_ff_rad: float
+    roll_diff_rad: float
+    raw: ActuatorCommand
+
+
+_NAN_INPUT = ActuatorFlag.NAN_INPUT.value  # a plain int: IntFlag & IntFlag costs ~1 us
+
+
+def _depth_rate_mps(nav: NavState) -> float:
+    """Measured depth rate dz/dt (m/s, + = diving) from the body velocity and attitude (NED z row of R)."""
+    cf, sf = math.cos(nav.roll_rad), math.sin(nav.roll_rad)
+    ct, st = math.cos(nav.pitch_rad), math.sin(nav.pitch_rad)
+    return -st * nav.u_mps + ct * sf * nav.v_mps + ct * cf * nav.w_mps
+
+
+def step(
+    nav: NavState,
+    reference: GuidanceReference,
+    state: ControllerState,
+    params: ControlParams,
+    dt_s: float,
+) -> tuple[ActuatorCommand, ControllerState, ControlDebug]:
+    """One controller step of ``dt_s`` s: eqs. 8-10 (+ the profile's extras), then :func:`saturate`.
+
+    Returns the limited command (flags set), the new state and the debug terms. Any NaN in the errors or
+    in the measurements the profile uses gives the neutral command with ``NAN_INPUT`` and resets the
+    derivative memory (so recovery does not start with a derivative kick).
+    """
+    g = params.gains
+    dt_ok = math.isfinite(dt_s) and dt_s > 0.0
+    e = (
+        reference.e_along_m,
+        reference.e_cross_m,
+        reference.e_depth_m,
+        reference.e_yaw_rad,
+        reference.e_pitch_rad,
+    )
+
+    # Derivatives: differences over dt_s (optionally low-passed), or measured rates where cleaner.
+    rates = g.derivative == "rates"
+    prev = state.errors
+    d = list(state.derivatives)
+    if prev is None:
+        d = [0.0] * 5
+    elif dt_ok:
+        alpha = dt_s / (g.derivative_tau_s + dt_s)
+        for i in range(2 if rates else 5):  # with measured rates, e_z, e_psi, e_theta are not differenced
+            diff = wrap_pi(e[i] - prev[i]) if i == 3 else e[i] - prev[i]
+            d[i] += alpha * (diff / dt_s - d[i])
+    if rates:
+        d[2] = reference.depth_rate_mps - _depth_rate_mps(nav)
+        d[3] = reference.yaw_rate_radps - nav.r_radps
+        d[4] = reference.pitch_rate_radps - nav.q_radps
+
+    ex, ey, ez, epsi, eth = e
+    dx, dy, dz, dpsi, dth = derivatives = (d[0], d[1], d[2], d[3], d[4])
+    p1, d1, p2, d2 = g.Kp1 * ex, g.KD1 * dx, g.Kp2 * ey, g.KD2 * dy
+    p3, d3, p4, d4 = g.Kp3 * ez, g.KD3 * dz, g.Kp4 * ex, g.KD4 * dx
+    p5, d5, p6, d6 = g.Kp5 * ey, g.KD5 * dy, g.Kp6 * epsi, g.KD6 * dpsi
+    p7, d7, p8, d8 = g.Kp7 * ez, g.KD7 * dz, g.Kp8 * eth, g.KD8 * dth
+    # Summed left to right from 0.0, as sum() did, so the result is the same to the bit (-0.0 included).
+    rps = 0.0 + p1 + d1 + p2 + d2 + p3 + d3  # eq. 8
+    rudder = 0.0 + p4 + d4 + p5 + d5 + p6 + d6  # eq. 9
+    stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
+
+    rps_ff = rudder_ff = 0.0
+    if g.feedforward:
+        rps_ff = g.speed_to_rps(reference.speed_mps)
+        speed = reference.speed_mps
+        kappa = reference.yaw_rate_radps / speed if speed > 1e-6 else reference.curvature_1pm
+        rudder_ff = -g.rudder_per_curvature_radm * kappa  # right turn (kappa > 0) = negative rudder
+    roll_diff = g.roll_kp * nav.roll_rad + g.roll_kd * nav.p_radps if (g.roll_kp or g.roll_kd) else 0.0
+
+    port, stbd = stern_split(stern, roll_diff)
+    raw = ActuatorCommand(rudder + rudder_ff, port, stbd, rps + rps_ff)
+    command = saturate(raw, state.command, params.limits, dt_s)
+    if int(command.flags) & _NAN_INPUT:
+        new_state = ControllerState(errors=None, command=command)
+    else:
+        new_state = ControllerState(errors=e, derivatives=derivatives, command=command)
+    terms = {
+        "P1": p1, "D1": d1, "P2": p2, "D2": d2, "P3": p3, "D3": d3, "P4": p4, "D4": d4,
+        "P5": p5, "D5": d5, "P6": p6, "D6": d6, "P7": p7, "D7": d7, "P8": p8, "D8": d8,
+    }  # fmt: skip
+    debug = ControlDebug(
+        errors=e,
+        derivatives=derivatives,
+        terms=terms,
+        rps_ff=rps_ff,
+        rudder_ff_rad=rudder_ff,
+        roll_diff_rad=roll_diff,
+        raw=raw,
+    )
+    return command, new_state, debug

@@ -1,0 +1,302 @@
+"""Guidance on the planner's :class:`~onboard.core.planner.path.Path`: the desired state and the
+path-frame errors.
+
+Modes (``[guidance] mode``):
+
+- ``track`` (faithful to the paper, sections 4-5): a reference point moves along the path at the uniform speed
+  ``speed_mps`` from the moment the path becomes active (time-parameterised). Desired x, y, depth, yaw, pitch
+  are those of the point, their rates U*cos(yaw), U*sin(yaw), U*d(depth)/ds, U*curvature, 0. The errors fed to
+  the revised PD (eqs. 8-10) are e = x_d - x_a (eq. 4) resolved in the path frame at the reference point.
+- ``los``: path following. The reference point is the vehicle's projection on the path; the desired yaw is
+  psi_d = psi_p + atan(e_cross / lookahead) (e_cross = cross-track error, + when the path is to starboard).
+  The along-track error is 0 (speed comes from the controller's speed map).
+- ``ilos``: integral LOS (Borhaug, Pavlov, Pettersen 2008): psi_d = psi_p + atan((e_cross + sigma*I) / Delta),
+  dI/dt = U * Delta * e_cross / ((e_cross + sigma*I)^2 + Delta^2), so a constant current is rejected with no
+  steady cross-track offset. |sigma*I| is clamped to Delta*tan(``ilos_max_correction_deg``).
+
+In every mode the yaw-rate feed-forward is r_d = U * curvature (rad/s, + = right turn) at the reference point.
+
+COMPLETE behaviour (``complete=True``): the path continues as a straight line from its end at the final
+heading and depth (``sample_extended``), flown at ``complete_speed_mps``; in ``track`` mode the reference
+point restarts from max(reference, vehicle projection) so it never pulls the vehicle backwards.
+
+Arrival (latched per path): the vehicle is within ``arrival_position_tol_m`` of the path end and its heading
+within ``arrival_yaw_tol_deg`` of the final heading, or its along-track coordinate is past the end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from auv_common.config import require
+from onboard.core.guidance.path_frame import (
+    depth_rate_per_m,
+    path_frame,
+    project,
+    sample_extended,
+    yaw_error,
+)
+from onboard.core.nav.types import NavState
+from onboard.core.planner.path import Path
+from onboard.protocol.conventions import wrap_pi
+
+GuidanceMode = Literal["track", "los", "ilos"]
+
+
+@dataclass(frozen=True)
+class GuidanceParams:
+    """The ``[guidance]`` table. Every key is optional.
+
+    - ``mode``: ``"track"`` (paper), ``"los"`` or ``"ilos"``.
+    - ``speed_mps``: desired (uniform) speed U along the path, m/s.
+    - ``complete_speed_mps``: reduced speed on the extension after the last goal, m/s.
+    - ``lookahead_m``: LOS lookahead distance Delta, m.
+    - ``ilos_gain``: ILOS integral gain sigma (dimensionless).
+    - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
+    - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
+    - ``search_back_m``, ``search_ahead_m``: window of the projection around the previous one, m.
+    - ``reference_accel_mps2``: ``track`` only: the reference starts at rest and speeds up at this rate to
+      ``speed_mps`` (0 = the paper's uniform speed from the first instant, which a vehicle starting at rest
+      cannot follow: the along-track error grows at the start, paper Fig. 10).
+    - ``lateral``: ``track`` only: ``"reference"`` (the paper: cross-track and yaw errors at the moving
+      reference point) or ``"path"`` (at the vehicle's projection on the path, with a LOS heading
+      correction over ``lookahead_m``; the reference point then only sets the along-track error). When the
+      vehicle lags, "reference" makes it cut corners towards a point already around the bend.
+    - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
+      many seconds (at the commanded speed ``speed_mps``) ahead of the projection, so the rudder moves
+      before the arc begins (the fins and the yaw dynamics lag by a fraction of a second).
+    - ``cross_error_limit_m``: where the heading reference already carries the cross-track error (LOS,
+      ILOS, and ``track`` with ``lateral = "path"``), the cross-track error handed to the controller's
+      eq. 9 term is limited to +-this (m; 0 = no limit). Far from the path the LOS heading must win: an
+      unlimited Kp5 * e_y term saturates the rudder whatever the heading, and the vehicle circles.
+    """
+
+    mode: GuidanceMode = "track"
+    speed_mps: float = 1.0
+    complete_speed_mps: float = 0.5
+    lookahead_m: float = 3.0
+    ilos_gain: float = 0.3
+    ilos_max_correction_deg: float = 30.0
+    arrival_position_tol_m: float = 0.25
+    arrival_yaw_tol_deg: float = 10.0
+    search_back_m: float = 2.0
+    search_ahead_m: float = 10.0
+    reference_accel_mps2: float = 0.0
+    lateral: Literal["reference", "path"] = "reference"
+    curvature_preview_s: float = 0.0
+    cross_error_limit_m: float = 0.0
+    arrival_yaw_tol_rad: float = field(init=False, repr=False)
+    ilos_max_correction_rad: float = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        require(self.speed_mps > 0.0, f"speed_mps must be > 0, got {self.speed_mps}")
+        require(self.complete_speed_mps >= 0.0, "complete_speed_mps must be >= 0")
+        require(self.lookahead_m > 0.0, f"lookahead_m must be > 0, got {self.lookahead_m}")
+        require(self.ilos_gain >= 0.0, f"ilos_gain must be >= 0, got {self.ilos_gain}")
+        require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")
+        require(self.arrival_position_tol_m > 0.0, "arrival_position_tol_m must be > 0")
+        require(0.0 < self.arrival_yaw_tol_deg <= 180.0, "arrival_yaw_tol_deg must be in (0, 180]")
+        require(self.search_back_m >= 0.0 and self.search_ahead_m > 0.0, "search window must be positive")
+        require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
+        require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
+        require(self.cross_error_limit_m >= 0.0, "cross_error_limit_m must be >= 0")
+        object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
+        object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
+
+
+@dataclass(frozen=True)
+class GuidanceState:
+    """Guidance memory for one path; start each new path from ``GuidanceState()``.
+
+    ``t_s``: time since the path became active, s; ``s_ref_m``: arc length of the moving reference (track);
+    ``s_proj_m``: the vehicle's last projection (None before the first); ``ilos_int_m``: the ILOS integral I;
+    ``arrived``: latched arrival.
+    """
+
+    t_s: float = 0.0
+    s_ref_m: float = 0.0
+    s_proj_m: float | None = None
+    ilos_int_m: float = 0.0
+    arrived: bool = False
+    ref_speed_mps: float = 0.0
+
+
+@dataclass(frozen=True)
+class GuidanceReference:
+    """The desired state and the errors for the controller. NED, m, rad, s.
+
+    Desired: ``x_m, y_m, depth_m, yaw_rad, pitch_rad`` and their rates; ``speed_mps`` = U,
+    ``yaw_rate_radps`` = U * ``curvature_1pm`` (the yaw-rate feed-forward).
+    Vehicle on the path: ``along_track_m`` (its projection's arc length), ``cross_track_m`` (+ = vehicle to
+    starboard of the path), ``distance_to_end_m``.
+    Errors e = desired - actual (eq. 4): ``e_along_m``, ``e_cross_m`` (path frame at the reference point; for
+    a path along +x these are the paper's e_x, e_y), ``e_depth_m`` (+ = must go deeper), ``e_yaw_rad``
+    (wrapped, + = must turn right), ``e_pitch_rad`` (+ = must pitch nose up).
+    ``nav_ok`` is False when the vehicle pose was not finite (the errors are then NaN).
+    """
+
+    mode: str
+    s_ref_m: float
+    x_m: float
+    y_m: float
+    depth_m: float
+    yaw_rad: float
+    pitch_rad: float
+    x_rate_mps: float
+    y_rate_mps: float
+    depth_rate_mps: float
+    yaw_rate_radps: float
+    pitch_rate_radps: float
+    speed_mps: float
+    curvature_1pm: float
+    along_track_m: float
+    cross_track_m: float
+    distance_to_end_m: float
+    e_along_m: float
+    e_cross_m: float
+    e_depth_m: float
+    e_yaw_rad: float
+    e_pitch_rad: float
+    arrived: bool
+    complete: bool
+    nav_ok: bool = True
+
+
+@dataclass(frozen=True)
+class GuidanceDebug:
+    """Per-step numbers: the LOS heading correction (rad) and the ILOS integral (m)."""
+
+    los_correction_rad: float = 0.0
+    ilos_int_m: float = 0.0
+
+
+def step(
+    nav: NavState,
+    path: Path,
+    state: GuidanceState,
+    params: GuidanceParams,
+    dt_s: float,
+    *,
+    complete: bool = False,
+) -> tuple[GuidanceReference, GuidanceState, GuidanceDebug]:
+    """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``.
+
+    ``complete=True`` flies the straight extension beyond the path end at ``complete_speed_mps``.
+    """
+    dt_s = max(0.0, dt_s) if math.isfinite(dt_s) else 0.0
+    mode = params.mode
+    speed = params.complete_speed_mps if complete else params.speed_mps
+    length = path.length_m
+    x_a, y_a, yaw_a = nav.x_m, nav.y_m, nav.yaw_rad
+    nav_ok = math.isfinite(x_a) and math.isfinite(y_a) and math.isfinite(yaw_a)
+    lateral_at_proj = mode == "track" and params.lateral == "path"
+
+    # Vehicle projection on the (extended) path, local to the previous one.
+    s_prev = state.s_proj_m
+    if not nav_ok:
+        s_proj = s_prev if s_prev is not None else 0.0
+    elif s_prev is None:
+        s_proj = project(path, x_a, y_a)
+    else:
+        s_proj = project(
+            path, x_a, y_a, s_prev - params.search_back_m, s_prev + params.search_ahead_m + speed * dt_s
+        )
+    proj = sample_extended(path, s_proj)
+
+    los_corr = 0.0
+    ilos_int = state.ilos_int_m
+    s_ref = state.s_ref_m
+    ref_speed = speed
+    if mode == "track":
+        if complete:
+            s_ref = max(s_ref, s_proj)
+        if params.reference_accel_mps2 > 0.0:
+            ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
+        s_ref += ref_speed * dt_s
+        ref = sample_extended(path, s_ref)
+    else:
+        s_ref = s_proj
+        ref = proj
+
+    yaw_d = ref.yaw_rad
+    curvature = ref.curvature_1pm
+    if not nav_ok:
+        e_along = e_cross = cross_track = math.nan
+    else:
+        _, cross_track = path_frame(x_a - proj.x_m, y_a - proj.y_m, proj.yaw_rad)
+        if lateral_at_proj:
+            # Lateral errors at the vehicle's projection; the reference point sets only the along-track error.
+            e_along = s_ref - s_proj
+            e_cross = -cross_track
+            los_corr = math.atan(e_cross / params.lookahead_m)
+            yaw_d = wrap_pi(proj.yaw_rad + los_corr)
+            curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
+        else:
+            e_along, e_cross = path_frame(ref.x_m - x_a, ref.y_m - y_a, ref.yaw_rad)
+    if mode != "track":
+        e_along = 0.0
+        delta = params.lookahead_m
+        sigma = params.ilos_gain if mode == "ilos" else 0.0
+        if mode == "ilos" and nav_ok:
+            ilos_int += dt_s * speed * delta * e_cross / ((e_cross + sigma * ilos_int) ** 2 + delta**2)
+            if sigma > 0.0:
+                bound = delta * math.tan(params.ilos_max_correction_rad) / sigma
+                ilos_int = min(max(ilos_int, -bound), bound)
+        if nav_ok:
+            los_corr = math.atan((e_cross + sigma * ilos_int) / delta)
+            yaw_d = wrap_pi(ref.yaw_rad + los_corr)
+
+    limit = params.cross_error_limit_m
+    if limit > 0.0 and (mode != "track" or params.lateral == "path") and math.isfinite(e_cross):
+        e_cross = min(max(e_cross, -limit), limit)
+
+    end = path.sample(length)  # cached by the path
+    if nav_ok:
+        dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
+        at_end = dist_end <= params.arrival_position_tol_m and (
+            abs(yaw_error(end.yaw_rad, yaw_a)) <= params.arrival_yaw_tol_rad
+        )
+        arrived = state.arrived or at_end or s_proj >= length
+    else:
+        dist_end = math.nan
+        arrived = state.arrived
+
+    slope = depth_rate_per_m(path, ref.s_m)
+    reference = GuidanceReference(
+        mode=mode,
+        s_ref_m=s_ref,
+        x_m=ref.x_m,
+        y_m=ref.y_m,
+        depth_m=ref.depth_m,
+        yaw_rad=yaw_d,
+        pitch_rad=ref.pitch_rad,
+        x_rate_mps=ref_speed * math.cos(ref.yaw_rad),
+        y_rate_mps=ref_speed * math.sin(ref.yaw_rad),
+        depth_rate_mps=ref_speed * slope,
+        yaw_rate_radps=ref_speed * curvature,
+        pitch_rate_radps=0.0,
+        speed_mps=ref_speed,
+        curvature_1pm=curvature,
+        along_track_m=s_proj,
+        cross_track_m=cross_track,
+        distance_to_end_m=dist_end,
+        e_along_m=e_along,
+        e_cross_m=e_cross,
+        e_depth_m=ref.depth_m - nav.depth_m,
+        e_yaw_rad=yaw_error(yaw_d, yaw_a) if nav_ok else math.nan,
+        e_pitch_rad=ref.pitch_rad - nav.pitch_rad,
+        arrived=arrived,
+        complete=complete,
+        nav_ok=nav_ok,
+    )
+    new_state = GuidanceState(
+        t_s=state.t_s + dt_s,
+        s_ref_m=s_ref,
+        s_proj_m=s_proj if nav_ok else s_prev,
+        ilos_int_m=ilos_int,
+        arrived=arrived,
+        ref_speed_mps=ref_speed,
+    )
+    return reference, new_state, GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int)

@@ -1,0 +1,384 @@
+"""Horizontal-position Kalman filter with DVL dead reckoning and innovation-gated position fixes.
+
+Model (per NED axis, independent because the process and fix noises are isotropic, so two 2-state filters are
+exact and need no matrix library)::
+
+    state   [p, b]         p = position (m), b = velocity bias / water current (m/s)
+    predict p += (v_ned + b) * dt,  b += random walk
+            v_ned = R(roll, pitch, yaw) [u v w]_body, its x and y rows
+    update  z = p + noise  (position fix, sigma ``fix_sigma_m``)
+
+A fix is applied only if its squared Mahalanobis distance d^2 = i_x^2 / S_x + i_y^2 / S_y (2 degrees of
+freedom) is at most ``gate_chi2``; otherwise it is rejected and counted, so an outlier never moves the
+estimate. The first valid fix initialises the position (before it: ``POSITION_MISSING``).
+Fix latency is ignored (a fix is applied at the step that sees it); the loop runs at 20 Hz and fixes are slow.
+
+Attitude, rates, depth and body velocity are passed through from the latest valid sample, with their ages.
+A non-finite sample is rejected, counted and flagged ``NAN_INPUT``; the previous valid sample stays in use.
+
+Pure: ``step(inputs, state, params, now_s)``. The filter needs the absolute time ``now_s`` (not only ``dt_s``)
+because it ages time-stamped samples; ``now_s`` comes from the loop's injected clock, nothing here reads one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from math import isfinite
+from typing import NamedTuple
+
+from auv_common.config import require
+from onboard.core.nav.types import (
+    Ahrs,
+    Depth,
+    DvlVelocity,
+    NavCondition,
+    NavInputs,
+    NavState,
+    PositionFix,
+)
+
+
+@dataclass(frozen=True)
+class NavParams:
+    """The ``[nav]`` table of the onboard TOML. Every key is optional.
+
+    - ``fix_sigma_m``: position-fix standard deviation, m.
+    - ``dvl_noise_m_per_sqrt_s``: random-walk density of the dead-reckoned position, m/sqrt(s).
+    - ``stale_dvl_noise_m_per_sqrt_s``: the same without a fresh DVL velocity (coasting on the bias).
+    - ``estimate_bias``: estimate a constant NED velocity bias (water current / DVL bias).
+    - ``bias_walk_mps_per_sqrt_s``: random-walk density of that bias, (m/s)/sqrt(s).
+    - ``initial_bias_sigma_mps``: its initial standard deviation, m/s; ``max_bias_mps``: clamp on it, m/s.
+    - ``gate_chi2``: innovation gate on d^2 (2 dof; 13.8 = 99.9 %).
+    - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``.
+    - ``fix_timeout_s``: a fix older than this raises ``POSITION_STALE`` (dead reckoning, still valid).
+    - ``max_dead_reckoning_s``: beyond this without an accepted fix the position is ``POSITION_INVALID``.
+    - ``dvl_timeout_s``, ``ahrs_timeout_s``, ``depth_timeout_s``: stale thresholds of the other inputs, s.
+    """
+
+    fix_sigma_m: float = 0.3
+    dvl_noise_m_per_sqrt_s: float = 0.05
+    stale_dvl_noise_m_per_sqrt_s: float = 0.5
+    estimate_bias: bool = True
+    bias_walk_mps_per_sqrt_s: float = 0.005
+    initial_bias_sigma_mps: float = 0.2
+    max_bias_mps: float = 2.0
+    gate_chi2: float = 13.8
+    max_consecutive_rejections: int = 5
+    fix_timeout_s: float = 5.0
+    max_dead_reckoning_s: float = 60.0
+    dvl_timeout_s: float = 1.0
+    ahrs_timeout_s: float = 0.5
+    depth_timeout_s: float = 0.5
+    # Derived once (the step reads them every tick): variances and squared densities.
+    fix_var_m2: float = field(init=False, repr=False)
+    q_pos_dvl: float = field(init=False, repr=False)
+    q_pos_stale: float = field(init=False, repr=False)
+    q_bias: float = field(init=False, repr=False)
+    initial_bias_var: float = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        require(self.fix_sigma_m > 0.0, f"fix_sigma_m must be > 0, got {self.fix_sigma_m}")
+        for name in (
+            "dvl_noise_m_per_sqrt_s",
+            "stale_dvl_noise_m_per_sqrt_s",
+            "bias_walk_mps_per_sqrt_s",
+            "initial_bias_sigma_mps",
+            "max_bias_mps",
+        ):
+            require(getattr(self, name) >= 0.0, f"{name} must be >= 0, got {getattr(self, name)}")
+        require(self.gate_chi2 > 0.0, f"gate_chi2 must be > 0, got {self.gate_chi2}")
+        require(self.max_consecutive_rejections >= 1, "max_consecutive_rejections must be >= 1")
+        timeouts = ("fix_timeout_s", "max_dead_reckoning_s", "dvl_timeout_s")
+        for name in (*timeouts, "ahrs_timeout_s", "depth_timeout_s"):
+            require(getattr(self, name) > 0.0, f"{name} must be > 0, got {getattr(self, name)}")
+        object.__setattr__(self, "fix_var_m2", self.fix_sigma_m**2)
+        object.__setattr__(self, "q_pos_dvl", self.dvl_noise_m_per_sqrt_s**2)
+        object.__setattr__(self, "q_pos_stale", self.stale_dvl_noise_m_per_sqrt_s**2)
+        object.__setattr__(self, "q_bias", self.bias_walk_mps_per_sqrt_s**2)
+        initial_bias_var = self.initial_bias_sigma_mps**2 if self.estimate_bias else 0.0
+        object.__setattr__(self, "initial_bias_var", initial_bias_var)
+
+
+class AxisFilter(NamedTuple):
+    """One axis: position p (m), bias b (m/s) and the symmetric covariance [[p00, p01], [p01, p11]].
+
+    Immutable; a named tuple rather than a frozen dataclass because two to four are built per tick and a
+    tuple is built ~4x faster.
+    """
+
+    p_m: float
+    b_mps: float
+    p00: float
+    p01: float
+    p11: float
+
+    def predict(self, v_mps: float, dt_s: float, q_pos: float, q_bias: float, bias_on: bool) -> AxisFilter:
+        """Propagate by ``dt_s`` with the measured velocity ``v_mps`` (NED, m/s); q_*: squared densities."""
+        b = self.b_mps if bias_on else 0.0
+        p00 = self.p00 + 2.0 * dt_s * self.p01 + dt_s * dt_s * self.p11 + q_pos * dt_s
+        p01 = self.p01 + dt_s * self.p11
+        p11 = self.p11
+        if bias_on:
+            p00 += q_bias * dt_s**3 / 3.0
+            p01 += q_bias * dt_s**2 / 2.0
+            p11 += q_bias * dt_s
+        return AxisFilter(self.p_m + (v_mps + b) * dt_s, b, p00, p01, p11)
+
+    def update(self, z_m: float, r_m2: float, max_bias_mps: float) -> AxisFilter:
+        """Kalman update with a position measurement ``z_m`` of variance ``r_m2``."""
+        s = self.p00 + r_m2
+        k0 = self.p00 / s
+        k1 = self.p01 / s
+        innovation = z_m - self.p_m
+        b = min(max(self.b_mps + k1 * innovation, -max_bias_mps), max_bias_mps)
+        return AxisFilter(
+            self.p_m + k0 * innovation,
+            b,
+            (1.0 - k0) * self.p00,
+            (1.0 - k0) * self.p01,
+            self.p11 - k1 * self.p01,
+        )
+
+
+@dataclass(frozen=True)
+class NavFilterState:
+    """Everything the navigation step carries between calls. Start from :meth:`initial`."""
+
+    t_s: float | None = None
+    x: AxisFilter | None = None
+    y: AxisFilter | None = None
+    last_fix_t_s: float = -math.inf  # t_sample_s of the latest fix looked at (accepted, rejected or NaN)
+    seen_dvl_t_s: float = -math.inf  # t_sample_s of the latest sample looked at, per input
+    seen_ahrs_t_s: float = -math.inf
+    seen_depth_t_s: float = -math.inf
+    accepted_fix_t_s: float = -math.inf
+    dvl: DvlVelocity | None = None
+    ahrs: Ahrs | None = None
+    depth: Depth | None = None
+    fixes_accepted: int = 0
+    fixes_rejected: int = 0
+    consecutive_rejections: int = 0
+    nan_rejected: int = 0
+
+    @classmethod
+    def initial(cls) -> NavFilterState:
+        return cls()
+
+
+@dataclass(frozen=True)
+class NavDebug:
+    """Per-step numbers for telemetry: the last fix's squared Mahalanobis distance and what happened to it."""
+
+    dt_s: float
+    fix_d2: float | None = None
+    fix_accepted: bool | None = None
+    used_dvl: bool = False
+
+
+# NavCondition bits as plain ints: the step ORs them into an int and builds the IntFlag once.
+_POSITION_MISSING = NavCondition.POSITION_MISSING.value
+_POSITION_STALE = NavCondition.POSITION_STALE.value
+_POSITION_INVALID = NavCondition.POSITION_INVALID.value
+_DVL_MISSING = NavCondition.DVL_MISSING.value
+_DVL_STALE = NavCondition.DVL_STALE.value
+_AHRS_MISSING = NavCondition.AHRS_MISSING.value
+_AHRS_STALE = NavCondition.AHRS_STALE.value
+_DEPTH_MISSING = NavCondition.DEPTH_MISSING.value
+_DEPTH_STALE = NavCondition.DEPTH_STALE.value
+_NAN_INPUT = NavCondition.NAN_INPUT.value
+_FIX_REJECTED = NavCondition.FIX_REJECTED.value
+_FIX_REJECTED_REPEATEDLY = NavCondition.FIX_REJECTED_REPEATEDLY.value
+_NO_CONDITIONS = NavCondition(0)
+
+
+def _horizontal_velocity(dvl: DvlVelocity, ahrs: Ahrs) -> tuple[float, float]:
+    """Body velocity (FRD) rotated to NED x and y (m/s), using the ZYX Euler angles (first two rows of R)."""
+    cf, sf = math.cos(ahrs.roll_rad), math.sin(ahrs.roll_rad)
+    ct, st = math.cos(ahrs.pitch_rad), math.sin(ahrs.pitch_rad)
+    cp, sp = math.cos(ahrs.yaw_rad), math.sin(ahrs.yaw_rad)
+    u, v, w = dvl.u_mps, dvl.v_mps, dvl.w_mps
+    vx = cp * ct * u + (cp * st * sf - sp * cf) * v + (cp * st * cf + sp * sf) * w
+    vy = sp * ct * u + (sp * st * sf + cp * cf) * v + (sp * st * cf - cp * sf) * w
+    return vx, vy
+
+
+def _age(now_s: float, t_sample_s: float | None) -> float:
+    return math.inf if t_sample_s is None else max(0.0, now_s - t_sample_s)
+
+
+def step(
+    inputs: NavInputs, state: NavFilterState, params: NavParams, now_s: float
+) -> tuple[NavState, NavFilterState, NavDebug]:
+    """One navigation step at time ``now_s`` (s, the loop's time base).
+
+    Inputs: the latest sample of each sensor (repeats are ignored by their ``t_sample_s``). Output: the
+    navigation solution, the new filter state and per-step debug numbers. Never raises on bad
+    data: NaN, stale or missing inputs become :class:`NavCondition` flags.
+    """
+    conditions = 0  # NavCondition bits as a plain int (IntFlag arithmetic is slow); converted once at the end
+    nan_rejected = state.nan_rejected
+    dt_s = 0.0 if state.t_s is None else max(0.0, now_s - state.t_s)
+
+    # 1. Take the new samples (newer than the last one looked at); reject non-finite ones, once each.
+    dvl, ahrs, depth = state.dvl, state.ahrs, state.depth
+    seen_dvl_t_s, seen_ahrs_t_s = state.seen_dvl_t_s, state.seen_ahrs_t_s
+    seen_depth_t_s = state.seen_depth_t_s
+    d = inputs.dvl
+    if d is not None and not d.t_sample_s <= seen_dvl_t_s:
+        seen_dvl_t_s = d.t_sample_s if isfinite(d.t_sample_s) else seen_dvl_t_s
+        if isfinite(d.u_mps) and isfinite(d.v_mps) and isfinite(d.w_mps) and isfinite(d.t_sample_s):
+            dvl = d
+        else:
+            conditions |= _NAN_INPUT
+            nan_rejected += 1
+    a = inputs.ahrs
+    if a is not None and not a.t_sample_s <= seen_ahrs_t_s:
+        seen_ahrs_t_s = a.t_sample_s if isfinite(a.t_sample_s) else seen_ahrs_t_s
+        if (
+            isfinite(a.roll_rad)
+            and isfinite(a.pitch_rad)
+            and isfinite(a.yaw_rad)
+            and isfinite(a.p_radps)
+            and isfinite(a.q_radps)
+            and isfinite(a.r_radps)
+            and isfinite(a.t_sample_s)
+        ):
+            ahrs = a
+        else:
+            conditions |= _NAN_INPUT
+            nan_rejected += 1
+    z = inputs.depth
+    if z is not None and not z.t_sample_s <= seen_depth_t_s:
+        seen_depth_t_s = z.t_sample_s if isfinite(z.t_sample_s) else seen_depth_t_s
+        if isfinite(z.depth_m) and isfinite(z.t_sample_s):
+            depth = z
+        else:
+            conditions |= _NAN_INPUT
+            nan_rejected += 1
+
+    dvl_age = _age(now_s, dvl.t_sample_s if dvl else None)
+    ahrs_age = _age(now_s, ahrs.t_sample_s if ahrs else None)
+    depth_age = _age(now_s, depth.t_sample_s if depth else None)
+    dvl_fresh = dvl is not None and dvl_age <= params.dvl_timeout_s
+    ahrs_fresh = ahrs is not None and ahrs_age <= params.ahrs_timeout_s
+
+    # 2. Predict with the DVL velocity rotated to NED (coast on the bias with more noise without it).
+    fx, fy = state.x, state.y
+    used_dvl = False
+    if fx is not None and fy is not None and dt_s > 0.0:
+        if dvl is not None and ahrs is not None and dvl_fresh and ahrs_fresh:
+            vx, vy = _horizontal_velocity(dvl, ahrs)
+            q_pos = params.q_pos_dvl
+            used_dvl = True
+        else:
+            vx = vy = 0.0
+            q_pos = params.q_pos_stale
+        fx = fx.predict(vx, dt_s, q_pos, params.q_bias, params.estimate_bias)
+        fy = fy.predict(vy, dt_s, q_pos, params.q_bias, params.estimate_bias)
+
+    # 3. Gate and apply a new position fix.
+    last_fix_t_s = state.last_fix_t_s
+    accepted_fix_t_s = state.accepted_fix_t_s
+    fixes_accepted, fixes_rejected = state.fixes_accepted, state.fixes_rejected
+    consecutive = state.consecutive_rejections
+    fix: PositionFix | None = inputs.position
+    fix_d2: float | None = None
+    fix_accepted: bool | None = None
+    if fix is not None and not fix.t_sample_s <= last_fix_t_s:
+        last_fix_t_s = fix.t_sample_s if isfinite(fix.t_sample_s) else last_fix_t_s
+        r_m2 = params.fix_var_m2
+        if not (isfinite(fix.x_m) and isfinite(fix.y_m) and isfinite(fix.t_sample_s)):
+            conditions |= _NAN_INPUT
+            nan_rejected += 1
+        elif fx is None or fy is None:
+            p_b = params.initial_bias_var
+            fx = AxisFilter(fix.x_m, 0.0, r_m2, 0.0, p_b)
+            fy = AxisFilter(fix.y_m, 0.0, r_m2, 0.0, p_b)
+            accepted_fix_t_s = fix.t_sample_s
+            fixes_accepted += 1
+            fix_accepted = True
+        else:
+            sx, sy = fx.p00 + r_m2, fy.p00 + r_m2
+            fix_d2 = (fix.x_m - fx.p_m) ** 2 / sx + (fix.y_m - fy.p_m) ** 2 / sy
+            if fix_d2 <= params.gate_chi2:
+                fx = fx.update(fix.x_m, r_m2, params.max_bias_mps)
+                fy = fy.update(fix.y_m, r_m2, params.max_bias_mps)
+                accepted_fix_t_s = fix.t_sample_s
+                fixes_accepted += 1
+                consecutive = 0
+                fix_accepted = True
+            else:
+                fixes_rejected += 1
+                consecutive += 1
+                conditions |= _FIX_REJECTED
+                fix_accepted = False
+    if consecutive >= params.max_consecutive_rejections:
+        conditions |= _FIX_REJECTED_REPEATEDLY
+
+    # 4. Conditions.
+    fix_age = _age(now_s, accepted_fix_t_s if isfinite(accepted_fix_t_s) else None)
+    if fx is None or fy is None:
+        conditions |= _POSITION_MISSING | _POSITION_INVALID
+    else:
+        if fix_age > params.fix_timeout_s:
+            conditions |= _POSITION_STALE
+        if fix_age > params.max_dead_reckoning_s:
+            conditions |= _POSITION_INVALID
+    if dvl is None:
+        conditions |= _DVL_MISSING
+    elif not dvl_fresh:
+        conditions |= _DVL_STALE
+    if ahrs is None:
+        conditions |= _AHRS_MISSING
+    elif not ahrs_fresh:
+        conditions |= _AHRS_STALE
+    if depth is None:
+        conditions |= _DEPTH_MISSING
+    elif depth_age > params.depth_timeout_s:
+        conditions |= _DEPTH_STALE
+
+    u = dvl.u_mps if dvl else 0.0
+    v = dvl.v_mps if dvl else 0.0
+    nav = NavState(
+        t_s=now_s,
+        x_m=fx.p_m if fx else math.nan,
+        y_m=fy.p_m if fy else math.nan,
+        depth_m=depth.depth_m if depth else math.nan,
+        roll_rad=ahrs.roll_rad if ahrs else math.nan,
+        pitch_rad=ahrs.pitch_rad if ahrs else math.nan,
+        yaw_rad=ahrs.yaw_rad if ahrs else math.nan,
+        u_mps=u,
+        v_mps=v,
+        w_mps=dvl.w_mps if dvl else 0.0,
+        p_radps=ahrs.p_radps if ahrs else math.nan,
+        q_radps=ahrs.q_radps if ahrs else math.nan,
+        r_radps=ahrs.r_radps if ahrs else math.nan,
+        speed_mps=math.hypot(u, v),
+        current_x_mps=fx.b_mps if fx else 0.0,
+        current_y_mps=fy.b_mps if fy else 0.0,
+        position_std_m=math.sqrt(max(fx.p00, 0.0) + max(fy.p00, 0.0)) if fx and fy else math.inf,
+        position_age_s=fix_age,
+        velocity_age_s=dvl_age,
+        attitude_age_s=ahrs_age,
+        depth_age_s=depth_age,
+        conditions=NavCondition(conditions) if conditions else _NO_CONDITIONS,
+    )
+    new_state = NavFilterState(
+        t_s=now_s,
+        x=fx,
+        y=fy,
+        last_fix_t_s=last_fix_t_s,
+        accepted_fix_t_s=accepted_fix_t_s,
+        dvl=dvl,
+        ahrs=ahrs,
+        depth=depth,
+        seen_dvl_t_s=seen_dvl_t_s,
+        seen_ahrs_t_s=seen_ahrs_t_s,
+        seen_depth_t_s=seen_depth_t_s,
+        fixes_accepted=fixes_accepted,
+        fixes_rejected=fixes_rejected,
+        consecutive_rejections=consecutive,
+        nan_rejected=nan_rejected,
+    )
+    return nav, new_state, NavDebug(dt_s=dt_s, fix_d2=fix_d2, fix_accepted=fix_accepted, used_dvl=used_dvl)

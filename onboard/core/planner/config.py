@@ -1,0 +1,99 @@
+"""Planner configuration: the ``[planner]`` table of the onboard TOML file, as a frozen dataclass.
+
+Build it from TOML with
+``auv_common.config.from_table(PlannerConfig, table, "onboard.toml [planner]")``:
+unknown keys and wrong types raise ``ConfigError``; the range checks below raise
+:class:`~onboard.core.planner.errors.PlannerConfigError`, which is a ``ConfigError`` and a ``PlannerError``.
+
+Weights of the paper's cost, eq. (2): ``J = Wd * distance_m + Wpsi * yaw_change_rad + WdR * rudder_rad_m``,
+where ``rudder_rad_m`` is the rudder magnitude each arc needs (from the radius-to-rudder map) integrated over
+arc length. The defaults (Wd = 1, Wpsi = WdR = 0) give the true Dubins shortest path.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+from onboard.core.planner.errors import PlannerConfigError
+
+# A placeholder steady-turn table (radius m -> rudder deg) until the simulator's steady-turn run fills it; it
+# follows rudder ~ 1/radius (linear manoeuvring model), which is also how it is interpolated (in curvature).
+_DEFAULT_MAP_RADIUS_M = (3.0, 5.0, 10.0, 20.0, 50.0)
+_DEFAULT_MAP_RUDDER_DEG = (20.0, 12.0, 6.0, 3.0, 1.2)
+
+
+def _check(condition: bool, reason: str, message: str) -> None:
+    """Like ``auv_common.config.require``, but the error also carries a planner ``reason``."""
+    if not condition:
+        raise PlannerConfigError(reason, message)
+
+
+def _finite(value: float) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Parameters of the homing path planner (paper section 3).
+
+    Attributes:
+        turning_radius_m: minimum turning radius r_min of the vehicle (m), > 0.
+        obstacle_margin_m: clearance added to every obstacle radius (m), >= 0; the inflated radius is
+            ``max(R + margin, r_min)`` so the vehicle can fly an obstacle's boundary as an arc.
+        weight_distance: Wd of eq. (2) (1/m), >= 0.
+        weight_yaw: Wpsi of eq. (2), per radian of cumulative |yaw change| (1/rad), >= 0.
+        weight_rudder: WdR of eq. (2), per rad*m of cumulative rudder (1/(rad m)), >= 0.
+        max_depth_slope: largest |d depth / d s| along the path (dimensionless, tan of the flight-path
+            angle), > 0.
+        rudder_map_radius_m: radii of the steady-turn table (m), strictly increasing, > 0.
+        rudder_map_rudder_deg: rudder magnitude for each radius (deg), >= 0.
+        csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
+            LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
+    """
+
+    turning_radius_m: float = 3.0
+    obstacle_margin_m: float = 1.0
+    weight_distance: float = 1.0
+    weight_yaw: float = 0.0
+    weight_rudder: float = 0.0
+    max_depth_slope: float = 0.25
+    rudder_map_radius_m: tuple[float, ...] = _DEFAULT_MAP_RADIUS_M
+    rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
+    csc_only: bool = False
+
+    def __post_init__(self) -> None:
+        r = self.turning_radius_m
+        _check(_finite(r) and r > 0.0, "radius", f"turning_radius_m must be positive and finite, got {r!r}")
+        m = self.obstacle_margin_m
+        _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
+        weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
+        for name, w in zip(("weight_distance", "weight_yaw", "weight_rudder"), weights, strict=True):
+            _check(_finite(w) and w >= 0.0, "config", f"{name} must be >= 0 and finite, got {w!r}")
+        _check(sum(weights) > 0.0, "config", "at least one of the cost weights must be positive")
+        s = self.max_depth_slope
+        _check(_finite(s) and s > 0.0, "config", f"max_depth_slope must be positive and finite, got {s!r}")
+        radii, rudders = self.rudder_map_radius_m, self.rudder_map_rudder_deg
+        _check(len(radii) >= 1, "config", "rudder_map_radius_m must have at least one entry")
+        _check(
+            len(radii) == len(rudders),
+            "config",
+            "rudder_map_radius_m and rudder_map_rudder_deg differ in length "
+            f"({len(radii)} vs {len(rudders)})",
+        )
+        _check(
+            all(_finite(x) and x > 0.0 for x in radii),
+            "config",
+            f"rudder_map_radius_m must be positive and finite, got {radii!r}",
+        )
+        _check(
+            all(b > a for a, b in itertools.pairwise(radii)),
+            "config",
+            f"rudder_map_radius_m must be strictly increasing, got {radii!r}",
+        )
+        _check(
+            all(_finite(x) and 0.0 <= x <= 90.0 for x in rudders),
+            "config",
+            f"rudder_map_rudder_deg must be in [0, 90] deg, got {rudders!r}",
+        )

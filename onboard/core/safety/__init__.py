@@ -1,0 +1,1 @@
+"""Failsafes: pure checks and the abort command."""

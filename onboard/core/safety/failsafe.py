@@ -1,0 +1,146 @@
+"""Failsafes: pure checks that request ABORT, and the abort actuator command.
+
+Checks (thresholds in the ``[failsafe]`` table, :class:`FailsafeParams`):
+
+- ``NAV_STALE``: the navigation solution is unusable: a blocking :class:`~onboard.core.nav.types.NavCondition`
+  (position invalid, attitude or depth missing/stale), attitude or depth older than ``nav_timeout_s``, or a
+  non-finite position/depth.
+- ``DEPTH_LIMIT``: depth below ``max_depth_m``.
+- ``AREA_BOUND``: horizontal position outside the operating rectangle [area_x_min_m, area_x_max_m] x
+  [area_y_min_m, area_y_max_m] (NED, m).
+- ``OVERRUNS``: ``max_overruns_in_row`` loop overruns in a row (the loop says whether this tick overran).
+
+Any of them -> ``FailsafeResult.abort`` with a reason; the loop feeds ``MissionEvent.FAILSAFE`` with that
+reason to the state machine and logs the flags in ``newly`` (set this tick) once, on the transition.
+
+Abort (the vehicle is positively buoyant): propeller off, rudder centred, both stern planes at
+``-abort_stern_deg`` (negative stern = nose up, by the sign convention), so it glides up to the surface.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+
+from auv_common.config import require
+from onboard.core.control.actuators import ActuatorCommand
+from onboard.core.nav.types import NavState
+
+
+@dataclass(frozen=True)
+class FailsafeParams:
+    """The ``[failsafe]`` table. Every key is optional.
+
+    - ``nav_timeout_s``: max age of attitude and depth, s.
+    - ``max_depth_m``: depth limit, m.
+    - ``area_x_min_m``, ``area_x_max_m``, ``area_y_min_m``, ``area_y_max_m``: operating rectangle, NED m.
+    - ``max_overruns_in_row``: loop overruns in a row that abort.
+    - ``abort_stern_deg``: nose-up stern deflection of the abort command, deg (> 0; sent as negative stern).
+    """
+
+    nav_timeout_s: float = 1.0
+    max_depth_m: float = 10.0
+    area_x_min_m: float = -500.0
+    area_x_max_m: float = 500.0
+    area_y_min_m: float = -500.0
+    area_y_max_m: float = 500.0
+    max_overruns_in_row: int = 10
+    abort_stern_deg: float = 15.0
+    abort_stern_rad: float = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        require(self.nav_timeout_s > 0.0, f"nav_timeout_s must be > 0, got {self.nav_timeout_s}")
+        require(self.max_depth_m > 0.0, f"max_depth_m must be > 0, got {self.max_depth_m}")
+        require(self.area_x_min_m < self.area_x_max_m, "need area_x_min_m < area_x_max_m")
+        require(self.area_y_min_m < self.area_y_max_m, "need area_y_min_m < area_y_max_m")
+        require(self.max_overruns_in_row >= 1, "max_overruns_in_row must be >= 1")
+        require(0.0 <= self.abort_stern_deg <= 45.0, "abort_stern_deg must be in [0, 45]")
+        object.__setattr__(self, "abort_stern_rad", math.radians(self.abort_stern_deg))
+
+
+class FailsafeFlag(enum.IntFlag):
+    """Which failsafe checks fail (bit flags; 0 = all pass)."""
+
+    NAV_STALE = enum.auto()
+    DEPTH_LIMIT = enum.auto()
+    AREA_BOUND = enum.auto()
+    OVERRUNS = enum.auto()
+
+
+@dataclass(frozen=True)
+class FailsafeState:
+    """The failsafe memory: overruns in a row and the flags of the previous check."""
+
+    overruns_in_row: int = 0
+    flags: FailsafeFlag = FailsafeFlag(0)  # noqa: RUF009 (an immutable IntFlag value)
+
+
+@dataclass(frozen=True)
+class FailsafeResult:
+    """``abort``: request ABORT; ``flags``: failing checks; ``newly``: those that started failing this tick;
+    ``reason``: one line naming each failing check and its numbers."""
+
+    abort: bool
+    flags: FailsafeFlag
+    newly: FailsafeFlag
+    reason: str
+
+
+# Flag bits as plain ints (IntFlag arithmetic costs ~1 us per operation; check runs every tick).
+_NAV_STALE = FailsafeFlag.NAV_STALE.value
+_DEPTH_LIMIT = FailsafeFlag.DEPTH_LIMIT.value
+_AREA_BOUND = FailsafeFlag.AREA_BOUND.value
+_OVERRUNS = FailsafeFlag.OVERRUNS.value
+_NO_FLAGS = FailsafeFlag(0)
+_ALL_PASS = FailsafeResult(abort=False, flags=_NO_FLAGS, newly=_NO_FLAGS, reason="")
+
+
+def check(
+    nav: NavState, overran: bool, state: FailsafeState, params: FailsafeParams
+) -> tuple[FailsafeResult, FailsafeState]:
+    """Run every failsafe check on the navigation solution ``nav`` and this tick's overrun flag."""
+    flags = 0
+    reasons: list[str] = []
+
+    isfinite = math.isfinite
+    finite = isfinite(nav.x_m) and isfinite(nav.y_m) and isfinite(nav.depth_m)
+    if not nav.valid or not finite or max(nav.attitude_age_s, nav.depth_age_s) > params.nav_timeout_s:
+        flags |= _NAV_STALE
+        reasons.append(
+            f"navigation stale (conditions {nav.conditions.name or 0}, attitude age "
+            f"{nav.attitude_age_s:.2f} s, depth age {nav.depth_age_s:.2f} s)"
+        )
+    if math.isfinite(nav.depth_m) and nav.depth_m > params.max_depth_m:
+        flags |= _DEPTH_LIMIT
+        reasons.append(f"depth {nav.depth_m:.2f} m beyond limit {params.max_depth_m:.2f} m")
+    if finite and not (
+        params.area_x_min_m <= nav.x_m <= params.area_x_max_m
+        and params.area_y_min_m <= nav.y_m <= params.area_y_max_m
+    ):
+        flags |= _AREA_BOUND
+        reasons.append(f"position ({nav.x_m:.1f}, {nav.y_m:.1f}) m outside the operating area")
+    overruns = state.overruns_in_row + 1 if overran else 0
+    if overruns >= params.max_overruns_in_row:
+        flags |= _OVERRUNS
+        reasons.append(f"{overruns} loop overruns in a row")
+
+    if overruns == state.overruns_in_row and flags == state.flags:
+        new_state = state  # unchanged (immutable): no new object
+    else:
+        new_state = FailsafeState(overruns_in_row=overruns, flags=FailsafeFlag(flags))
+    if not flags:
+        return _ALL_PASS, new_state
+    newly = FailsafeFlag(flags & ~int(state.flags))
+    result = FailsafeResult(abort=True, flags=new_state.flags, newly=newly, reason="; ".join(reasons))
+    return result, new_state
+
+
+def abort_command(params: FailsafeParams) -> ActuatorCommand:
+    """Propeller off, rudder centred, stern planes nose up (negative stern) to surface."""
+    return ActuatorCommand(
+        rudder_rad=0.0,
+        stern_port_rad=-params.abort_stern_rad,
+        stern_starboard_rad=-params.abort_stern_rad,
+        propeller_rps=0.0,
+    )
