@@ -1,11 +1,18 @@
 """``auv-gcs``: the operator's MAVLink tool for the ISiMI100.
 
-    auv-gcs [--connect URL] [--json] upload FILE | download [FILE] | clear | fence FILE | arm | disarm |
-            start | hold | resume | abort | params [get NAME | set NAME VALUE] | monitor | plot TLOG
+    auv-gcs [--connect URL] [--json] upload FILE | download [FILE] | clear | fence FILE | arm |
+            disarm [--force] | start [--from SEQ] | hold | resume | abort | wait-ready [--timeout S] |
+            params [get NAME | set NAME VALUE] | monitor | plot TLOG
 
 URL: udpin:HOST:PORT (default udpin:0.0.0.0:14550, where the vehicle sends), udpout:HOST:PORT, tcp:HOST:PORT.
 Every session is recorded as a .tlog in --tlog-dir (default ~/.local/share/isimi100/tlogs).
-Exit status: 0 done, 1 refused by the vehicle, 2 usage / file / link error.
+
+The ground station tells the truth it is told: every command prints the vehicle's MAV_RESULT and, for a
+refusal, the vehicle's reason (the STATUSTEXT it sends right after the ACK); an upload prints the MISSION_ACK
+result and the reason likewise. ``--json`` lines carry ``result`` and ``reason``. Exit status
+(:data:`EXIT_STATUS`): 0 accepted / done, 1 refused (DENIED, FAILED, UNSUPPORTED, a MAV_MISSION_* error),
+2 usage / file / link error, 3 temporarily rejected (not now, e.g. the navigation is not valid yet; also
+``wait-ready`` timing out), 130 interrupted.
 """
 
 from __future__ import annotations
@@ -21,16 +28,57 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation import mission_files
-from groundstation.mavclient import MAV_RESULT_NAMES, Item, LinkError, MavClient
+from groundstation.mavclient import (
+    MAV_STATE_NAMES,
+    CommandAck,
+    Item,
+    LinkError,
+    MavClient,
+    TransferResult,
+    state_from_heartbeat,
+)
 
-COMMANDS: dict[str, tuple[int, tuple[float, ...]]] = {
-    "arm": (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,)),
-    "disarm": (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (0.0,)),
-    "start": (mavlink.MAV_CMD_MISSION_START, (0.0, 0.0)),
-    "hold": (mavlink.MAV_CMD_DO_PAUSE_CONTINUE, (0.0,)),
-    "resume": (mavlink.MAV_CMD_DO_PAUSE_CONTINUE, (1.0,)),
-    "abort": (mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, ()),
+EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_STATUS = """exit status:
+  0    accepted / done
+  1    refused by the vehicle: MAV_RESULT_DENIED, _FAILED, _UNSUPPORTED, or a MAV_MISSION_* error
+       (the vehicle's reason is printed, and is the "reason" of --json)
+  2    usage, file or link error (no heartbeat, no answer)
+  3    temporarily rejected: MAV_RESULT_TEMPORARILY_REJECTED (valid, but not now, e.g. the navigation
+       is not valid yet: try again later), or wait-ready timed out
+  130  interrupted"""
+FORCE_DISARM_MAGIC = 21196.0  # MAV_CMD_COMPONENT_ARM_DISARM param2: disarm even while running
+
+COMMANDS: dict[str, tuple[int, str]] = {
+    "arm": (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, "arm the vehicle"),
+    "disarm": (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, "disarm (refused while running unless --force)"),
+    "start": (mavlink.MAV_CMD_MISSION_START, "start the mission (default: from its current goal)"),
+    "hold": (mavlink.MAV_CMD_DO_PAUSE_CONTINUE, "hold a running mission"),
+    "resume": (mavlink.MAV_CMD_DO_PAUSE_CONTINUE, "resume a held mission"),
+    "abort": (mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, "abort: propeller off, surface"),
 }
+
+
+def command_params(args: argparse.Namespace) -> tuple[int, tuple[float, ...]]:
+    """MAV_CMD and params of a command sub-command."""
+    cmd = COMMANDS[args.cmd][0]
+    if args.cmd == "arm":
+        return cmd, (1.0,)
+    if args.cmd == "disarm":
+        return cmd, (0.0, FORCE_DISARM_MAGIC if args.force else 0.0)
+    if args.cmd == "start":  # first_item 0: the vehicle continues from the mission's current goal
+        return cmd, (float(args.from_seq), 0.0)
+    if args.cmd in ("hold", "resume"):
+        return cmd, (0.0 if args.cmd == "hold" else 1.0,)
+    return cmd, ()
+
+
+def exit_code_of_command(result: int) -> int:
+    if result == mavlink.MAV_RESULT_ACCEPTED:
+        return EXIT_OK
+    if result == mavlink.MAV_RESULT_TEMPORARILY_REJECTED:
+        return EXIT_NOT_NOW
+    return EXIT_REFUSED
 
 
 def default_tlog_dir() -> Path:
@@ -39,7 +87,13 @@ def default_tlog_dir() -> Path:
 
 
 def _parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="auv-gcs", description="ISiMI100 ground station (MAVLink 2)")
+    ap = argparse.ArgumentParser(
+        prog="auv-gcs",
+        description="ISiMI100 ground station (MAVLink 2). Prints the vehicle's answer to every command and "
+        "upload: the MAV_RESULT / MISSION_ACK result and, for a refusal, the vehicle's reason (STATUSTEXT).",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--connect", default="udpin:0.0.0.0:14550", help="udpin:H:P | udpout:H:P | tcp:H:P")
     ap.add_argument("--json", action="store_true", help="machine-readable output")
     ap.add_argument("--tlog-dir", type=Path, default=None, help="where the session .tlog goes")
@@ -47,15 +101,47 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--signing-key", type=Path, help="sign with this key (32 bytes or 64 hex characters)")
     ap.add_argument("--system-id", type=int, default=255, help="our MAVLink system id")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    p = sub.add_parser("upload", help="upload goals (and obstacles, if the file has any)")
+    p = sub.add_parser(
+        "upload",
+        help="upload goals (and obstacles, if the file has any: the fence first; if the goals are then "
+        "refused, the previous fence is restored, so a refused upload changes nothing)",
+    )
     p.add_argument("file", type=Path)
     p = sub.add_parser("download", help="download the mission and fence")
     p.add_argument("file", type=Path, nargs="?")
     sub.add_parser("clear", help="clear mission and fence")
     p = sub.add_parser("fence", help="upload the obstacles of a file as the fence")
     p.add_argument("file", type=Path)
-    for name in COMMANDS:
-        sub.add_parser(name, help=f"send the {name} command")
+    for name, (_cmd, text) in COMMANDS.items():
+        p = sub.add_parser(
+            name, help=text, epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter
+        )
+        if name == "disarm":
+            p.add_argument("--force", action="store_true", help="disarm even while running (param2 21196)")
+        elif name == "start":
+            p.add_argument(
+                "--from",
+                dest="from_seq",
+                type=int,
+                default=0,
+                metavar="SEQ",
+                help="start at mission item SEQ (MISSION_START first_item; default 0: the vehicle continues "
+                "from the mission's current goal, i.e. its progress)",
+            )
+    p = sub.add_parser(
+        "wait-ready",
+        help="wait until the vehicle's HEARTBEAT no longer says BOOT (it is ready: navigation valid)",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--timeout",
+        dest="ready_timeout",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="give up after S s (exit 3)",
+    )
     p = sub.add_parser("params", help="list, get or set parameters")
     p.add_argument("action", nargs="?", choices=["get", "set"])
     p.add_argument("name", nargs="?")
@@ -95,6 +181,7 @@ def _load_key(path: Path | None) -> bytes | None:
 
 
 def _upload(client: MavClient, out: _Out, items: list[Item], mission_type: int, label: str) -> dict[str, Any]:
+    r: TransferResult
     if out.as_json or not items:
         r = client.upload(items, mission_type)
     else:
@@ -103,7 +190,70 @@ def _upload(client: MavClient, out: _Out, items: list[Item], mission_type: int, 
         with Progress(console=out.console, transient=True) as prog:
             task = prog.add_task(f"upload {label}", total=len(items))
             r = client.upload(items, mission_type, progress=lambda done, n: prog.update(task, completed=done))
-    return {"type": label, "items": len(items), "ok": r.ok, "result": r.result_name, "elapsed_s": r.elapsed_s}
+    return {
+        "type": label,
+        "items": len(items),
+        "ok": r.ok,
+        "result": r.result_name,
+        "reason": r.reason,
+        "elapsed_s": r.elapsed_s,
+        "timeout": r.result < 0,
+    }
+
+
+def _esc(text: str) -> str:
+    """The vehicle's words printed as they are (no rich markup)."""
+    from rich.markup import escape
+
+    return escape(text)
+
+
+def _upload_text(r: dict[str, Any]) -> str:
+    verdict = "accepted" if r["ok"] else "REFUSED"
+    why = f": {_esc(r['reason'])}" if r["reason"] else ""
+    return f"{r['type']}: {r['items']} items {verdict} ({r['result']}{why}, {r['elapsed_s']:.3f} s)"
+
+
+def _upload_plans(
+    client: MavClient, out: _Out, goals: list[Item], fences: list[Item], with_goals: bool, with_fence: bool
+) -> tuple[list[dict[str, Any]], str]:
+    """Upload the fence (first) and the goals; a refused goals upload restores the previous fence.
+
+    The vehicle checks a fence against its stored goals and goals against its stored fence, and a refused
+    upload changes nothing; uploading the fence first and putting the old one back when the goals are then
+    refused keeps the pair as it was (a fence change alone keeps the mission's progress). Returns the
+    results (mission first) and a note on the restore ("" if none was needed).
+    """
+    results: list[dict[str, Any]] = []
+    note = ""
+    old_fence: list[Item] | None = None
+    if with_fence:
+        if with_goals:
+            old_fence = client.download(mavlink.MAV_MISSION_TYPE_FENCE)
+        results.append(_upload(client, out, fences, mavlink.MAV_MISSION_TYPE_FENCE, "fence"))
+        if not results[-1]["ok"]:
+            return results, note
+    if with_goals:
+        results.insert(0, _upload(client, out, goals, mavlink.MAV_MISSION_TYPE_MISSION, "mission"))
+        if not results[0]["ok"] and old_fence is not None:
+            back = client.upload(old_fence, mavlink.MAV_MISSION_TYPE_FENCE)
+            note = (
+                f"the previous fence ({len(old_fence)} items) was restored"
+                if back.ok
+                else f"restoring the previous fence failed ({back.result_name}: {back.reason})"
+            )
+    return results, note
+
+
+def _new_tlog(tlog_dir: Path) -> Path:
+    """A session's own .tlog (time of day to the millisecond, pid; never one of an earlier session)."""
+    now = time.time()
+    ms = int(now * 1000) % 1000
+    stem = f"gcs-{time.strftime('%Y%m%d-%H%M%S', time.localtime(now))}.{ms:03d}-{os.getpid()}"
+    path, n = tlog_dir / f"{stem}.tlog", 1
+    while path.exists():
+        path, n = tlog_dir / f"{stem}-{n}.tlog", n + 1
+    return path
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -131,36 +281,44 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     tlog_dir = args.tlog_dir or default_tlog_dir()
     tlog_dir.mkdir(parents=True, exist_ok=True)
-    tlog = tlog_dir / f"gcs-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.tlog"
+    tlog = _new_tlog(tlog_dir)
     try:
         with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=args.system_id) as client:
             client.heartbeat()
-            client.wait_heartbeat(args.timeout)
+            t0 = time.monotonic()
+            first_s = args.ready_timeout if args.cmd == "wait-ready" else args.timeout
+            client.wait_heartbeat(first_s)
+            if args.cmd == "wait-ready":
+                return _wait_ready(client, out, max(0.0, args.ready_timeout - (time.monotonic() - t0)), t0)
             return _run(args, client, out, goals, fences, tlog)
     except LinkError as exc:
         out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, f"[red]error:[/] {exc}")
-        return 2
+        return EXIT_ERROR
     except KeyboardInterrupt:
-        return 130
+        return EXIT_INTERRUPTED
 
 
 def _run(
     args: argparse.Namespace, client: MavClient, out: _Out, goals: list[Item], fences: list[Item], tlog: Path
 ) -> int:
     if args.cmd in ("upload", "fence"):
-        results = []
-        if args.cmd == "upload":
-            results.append(_upload(client, out, goals, mavlink.MAV_MISSION_TYPE_MISSION, "mission"))
-        if fences or args.cmd == "fence":
-            results.append(_upload(client, out, fences, mavlink.MAV_MISSION_TYPE_FENCE, "fence"))
+        with_fence = bool(fences) or args.cmd == "fence"
+        results, note = _upload_plans(client, out, goals, fences, args.cmd == "upload", with_fence)
         ok = all(r["ok"] for r in results)
-        text = "\n".join(
-            f"{r['type']}: {r['items']} items {'accepted' if r['ok'] else 'REFUSED'} ({r['result']}, "
-            f"{r['elapsed_s']:.3f} s)"
-            for r in results
-        )
-        out.done({"ok": ok, "results": results, "tlog": str(tlog)}, text)
-        return 0 if ok else 1
+        refused = next((r for r in results if not r["ok"]), None)
+        text = "\n".join(_upload_text(r) for r in results) + (f"\n{_esc(note)}" if note else "")
+        data = {
+            "ok": ok,
+            "result": refused["result"] if refused else "MAV_MISSION_ACCEPTED",
+            "reason": refused["reason"] if refused else "",
+            "results": results,
+            "restored": note,
+            "tlog": str(tlog),
+        }
+        out.done(data, text)
+        if ok:
+            return EXIT_OK
+        return EXIT_ERROR if refused and refused["timeout"] else EXIT_REFUSED
     if args.cmd == "download":
         g = client.download(mavlink.MAV_MISSION_TYPE_MISSION)
         f = client.download(mavlink.MAV_MISSION_TYPE_FENCE)
@@ -184,15 +342,21 @@ def _run(
         return 0
     if args.cmd == "clear":
         r = client.clear(mavlink.MAV_MISSION_TYPE_ALL)
-        out.done({"ok": r.ok, "result": r.result_name}, f"clear: {r.result_name}")
-        return 0 if r.ok else 1
+        why = f": {_esc(r.reason)}" if r.reason else ""
+        out.done({"ok": r.ok, "result": r.result_name, "reason": r.reason}, f"clear: {r.result_name}{why}")
+        return EXIT_OK if r.ok else EXIT_REFUSED
     if args.cmd in COMMANDS:
-        cmd, params = COMMANDS[args.cmd]
-        result = client.command(cmd, *params)
-        name = MAV_RESULT_NAMES.get(result, str(result))
-        ok = result == mavlink.MAV_RESULT_ACCEPTED
-        out.done({"ok": ok, "command": args.cmd, "result": name}, f"{args.cmd}: {name}")
-        return 0 if ok else 1
+        cmd, params = command_params(args)
+        ack: CommandAck = client.command_ack(cmd, *params)
+        data = {
+            "ok": ack.ok,
+            "command": args.cmd,
+            "result": ack.result_name,
+            "reason": ack.reason,
+            "texts": list(ack.texts),
+        }
+        out.done(data, f"{args.cmd}: {ack.result_name}" + (f": {_esc(ack.reason)}" if ack.reason else ""))
+        return exit_code_of_command(ack.result)
     if args.cmd == "params":
         return _params(args, client, out)
     if args.cmd == "monitor":
@@ -201,6 +365,29 @@ def _run(
         monitor(client, out.console, args.duration, as_json=args.json)
         return 0
     return 2
+
+
+def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> int:
+    """``wait-ready``: exit 0 once HEARTBEAT system_status is not UNINIT / BOOT, else 3 at the timeout."""
+    ready, hb, why = client.wait_ready(timeout_s)
+    status = MAV_STATE_NAMES.get(int(hb.system_status), str(hb.system_status)) if hb is not None else "-"
+    state = state_from_heartbeat(hb) if hb is not None else "-"
+    armed = bool(hb is not None and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+    data = {
+        "ok": ready,
+        "ready": ready,
+        "result": status,
+        "reason": why,
+        "state": state,
+        "armed": armed,
+        "waited_s": round(time.monotonic() - t0, 3),
+    }
+    if ready:
+        out.done(data, f"ready: {status} ({state}{', armed' if armed else ''})")
+        return EXIT_OK
+    text = f"not ready after {data['waited_s']:g} s: {status} ({state})" + (f": {_esc(why)}" if why else "")
+    out.done(data, text)
+    return EXIT_NOT_NOW
 
 
 def _params(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
@@ -226,12 +413,15 @@ def _params(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
     if args.value is None:
         out.done({"ok": False, "error": "value missing"}, "[red]error:[/] value missing")
         return 2
+    t_sent = time.monotonic()
     ok, v = client.param_set(args.name, args.value)
+    why = "" if ok else client.reason_after(t_sent, time.monotonic())  # PARAM_SET has no ACK: its STATUSTEXT
     out.done(
-        {"ok": ok, "name": args.name, "value": v},
-        f"{args.name} = {v:g}" + ("" if ok else f" (refused {args.value:g})"),
+        {"ok": ok, "name": args.name, "value": v, "reason": why},
+        f"{args.name} = {v:g}"
+        + ("" if ok else f" (refused {args.value:g}{': ' + _esc(why) if why else ''})"),
     )
-    return 0 if ok else 1
+    return EXIT_OK if ok else EXIT_REFUSED
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Benchmark: mission upload time of 10 and 100 goals over loopback, clean and through a 20 % loss relay.
 
-The vehicle side runs as a real process (``python -m onboard.adapters.mavlink.standalone``: the endpoint
+The vehicle side runs as a real process (``python -m onboard.app.standalone``: the endpoint
 with a fake
 loop); this module only talks MAVLink to it. ``run()`` returns seconds per upload (median) and counts;
 it measures and prints, it asserts nothing. ``python -m groundstation.bench_upload [--quick] [--json]``.
@@ -29,7 +29,7 @@ def start_vehicle(state_dir: Path, timeout_s: float = 10.0) -> tuple[subprocess.
         [
             sys.executable,
             "-m",
-            "onboard.adapters.mavlink.standalone",
+            "onboard.app.standalone",
             "--endpoint",
             "udpin:127.0.0.1:0",
             "--state-dir",

@@ -4,6 +4,12 @@ It talks to the vehicle only over the wire (no onboard imports). Every packet se
 to the session's ``.tlog`` (8-byte big-endian microseconds since the epoch, then the raw packet), the format
 MAVProxy, QGroundControl and pymavlink read.
 
+The vehicle's word: every STATUSTEXT from the vehicle is reassembled (MAVLink 2 chunks with a common ``id``
+and ``chunk_seq`` 0, 1, ...; the text ends in the first chunk shorter than 50 characters) into
+:class:`StatusText` records (:attr:`MavClient.texts`). A refused COMMAND_ACK or MISSION_ACK is followed by a
+STATUSTEXT with the vehicle's reason; :meth:`MavClient.command_ack` and :meth:`MavClient.upload` collect the
+texts arriving within ``reason_window_s`` (0.3 s) after the ACK and return the reason with the result.
+
 URLs: ``udpin:HOST:PORT`` listens (the vehicle sends there; default ``udpin:0.0.0.0:14550``) and answers the
 address the vehicle's packets came from; ``udpout:HOST:PORT`` sends to a vehicle listening there;
 ``tcp:HOST:PORT`` connects to a vehicle's ``tcpin`` endpoint.
@@ -16,7 +22,7 @@ import math
 import socket
 import struct
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,7 +37,22 @@ MISSION_RESULT_NAMES = {
 MAV_RESULT_NAMES = {
     v: k for k, v in vars(mavlink).items() if k.startswith("MAV_RESULT_") and isinstance(v, int)
 }
+MAV_STATE_NAMES = {
+    v: k for k, v in vars(mavlink).items() if k.startswith("MAV_STATE_") and isinstance(v, int)
+}
 STATE_NAMES = ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")
+#: HEARTBEAT system_status values meaning "not ready yet" (the vehicle reports BOOT until it could start).
+NOT_READY_STATES = (mavlink.MAV_STATE_UNINIT, mavlink.MAV_STATE_BOOT)
+STATUSTEXT_LEN = 50
+REASON_WINDOW_S = 0.3
+#: Answers of the mission protocol: ones already waiting when a transfer begins are stale.
+MISSION_REPLIES = (
+    "MISSION_ACK",
+    "MISSION_COUNT",
+    "MISSION_ITEM_INT",
+    "MISSION_REQUEST_INT",
+    "MISSION_REQUEST",
+)
 
 
 class LinkError(RuntimeError):
@@ -56,13 +77,77 @@ class Item:
 
 @dataclass(frozen=True)
 class TransferResult:
-    """Outcome of a mission transfer: MAV_MISSION result code, its name, time taken, resends."""
+    """Outcome of a mission transfer: MAV_MISSION result code, its name, time taken, resends, and on a
+    refusal the vehicle's reason (its STATUSTEXT; "" if it sent none)."""
 
     ok: bool
     result: int
     result_name: str
     elapsed_s: float
     resends: int
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class StatusText:
+    """One (reassembled) STATUSTEXT of the vehicle: MAV_SEVERITY, the text, when it arrived (monotonic s).
+
+    ``complete`` is False for a chunked text whose last chunk never came (the chunks that did, in order)."""
+
+    severity: int
+    text: str
+    t_s: float
+    complete: bool = True
+
+
+@dataclass(frozen=True)
+class CommandAck:
+    """The vehicle's answer to one command: the MAV_RESULT, its name, and the vehicle's reason (the
+    STATUSTEXT it sent with a refusal; "" if none came within the window)."""
+
+    result: int
+    result_name: str
+    reason: str = ""
+    texts: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return self.result == mavlink.MAV_RESULT_ACCEPTED
+
+
+class StatusTextAssembler:
+    """Reassembles STATUSTEXT chunks (MAVLink 2 ``id`` / ``chunk_seq``) into whole texts."""
+
+    def __init__(self, max_age_s: float = 2.0) -> None:
+        self.max_age_s = max_age_s
+        self._parts: dict[tuple[int, int, int], tuple[int, float, dict[int, str]]] = {}
+
+    def feed(self, msg: Msg, now_s: float) -> StatusText | None:
+        """The completed text this message finishes (a single-message text at once), else None."""
+        text = _text(msg.text)
+        chunk_id = int(getattr(msg, "id", 0) or 0)
+        if chunk_id == 0:
+            return StatusText(int(msg.severity), text, now_s)
+        key = (msg.get_srcSystem(), msg.get_srcComponent(), chunk_id)
+        severity, _t, parts = self._parts.get(key, (int(msg.severity), now_s, {}))
+        parts[int(getattr(msg, "chunk_seq", 0) or 0)] = text
+        if len(text) < STATUSTEXT_LEN:  # the last chunk (it ends with a NUL)
+            self._parts.pop(key, None)
+            last = max(parts)
+            complete = all(k in parts for k in range(last + 1))
+            return StatusText(severity, "".join(parts[k] for k in sorted(parts)), now_s, complete)
+        self._parts[key] = (severity, now_s, parts)
+        return None
+
+    def flush(self, now_s: float, older_than_s: float | None = None) -> list[StatusText]:
+        """Texts whose last chunk did not come within ``older_than_s`` (default ``max_age_s``), incomplete."""
+        age = self.max_age_s if older_than_s is None else older_than_s
+        out = []
+        for key, (severity, t, parts) in list(self._parts.items()):
+            if now_s - t >= age:
+                del self._parts[key]
+                out.append(StatusText(severity, "".join(parts[k] for k in sorted(parts)), now_s, False))
+        return out
 
 
 def state_from_heartbeat(msg: Msg) -> str:
@@ -124,6 +209,8 @@ class MavClient:
         self._confirmation = 0
         self.rx_errors = 0
         self.on_message: Callable[[Msg], None] | None = None
+        self.texts: collections.deque[StatusText] = collections.deque(maxlen=256)
+        self._assembler = StatusTextAssembler()
 
     # ---- raw I/O -------------------------------------------------------------------------------
     def write(self, buf: bytes) -> None:
@@ -193,6 +280,11 @@ class MavClient:
                 self.heartbeat()
             if self._queue:
                 msg = self._queue.popleft()
+                if msg.get_type() == "STATUSTEXT" and self._from_target(msg):
+                    done = self._assembler.feed(msg, now)
+                    if done is not None:
+                        self.texts.append(done)
+                self.texts.extend(self._assembler.flush(now))
                 if self.on_message is not None:
                     self.on_message(msg)
                 return msg
@@ -216,10 +308,32 @@ class MavClient:
             self._queue.extend(msgs)
 
     def wait_heartbeat(self, timeout_s: float = 5.0) -> Msg:
-        """Wait for the vehicle's HEARTBEAT; remember its ids as the target."""
-        deadline = time.monotonic() + timeout_s
+        """Wait for the vehicle's HEARTBEAT; remember its ids as the target.
+
+        The vehicle sends one a second; to not wait that long, it is also asked for one
+        (MAV_CMD_REQUEST_MESSAGE, broadcast) every 0.5 s while none came."""
+        t0 = time.monotonic()
+        deadline = t0 + timeout_s
+        ask_at = t0 + 0.05
         while (left := deadline - time.monotonic()) > 0:
-            m = self.recv(left)
+            if time.monotonic() >= ask_at:
+                ask_at = time.monotonic() + 0.5
+                self.send(
+                    mavlink.MAVLink_command_long_message(
+                        0,
+                        0,
+                        mavlink.MAV_CMD_REQUEST_MESSAGE,
+                        0,
+                        mavlink.MAVLINK_MSG_ID_HEARTBEAT,
+                        0,
+                        0,
+                        0,
+                        0,
+                        0,
+                        0,
+                    )
+                )
+            m = self.recv(min(left, max(0.01, ask_at - time.monotonic())))
             if m is not None and m.get_type() == "HEARTBEAT" and m.type != mavlink.MAV_TYPE_GCS:
                 self.target = (m.get_srcSystem(), m.get_srcComponent())
                 return m
@@ -231,6 +345,28 @@ class MavClient:
     def _to_us(self, m: Msg) -> bool:
         ts = getattr(m, "target_system", 0)
         return ts in (0, self.system_id)
+
+    def drop_stale(self, kinds: tuple[str, ...]) -> int:
+        """Read what is already waiting (without blocking) and drop the ``kinds`` messages among it, so a
+        transaction does not take an answer to an earlier one (e.g. another ground station's MISSION_ACK,
+        fanned out by the vehicle to every peer); other messages stay queued. Returns how many were dropped.
+        """
+        self.sock.settimeout(0.0)
+        try:
+            while True:
+                try:
+                    data = self.sock.recv(65536)
+                except (BlockingIOError, TimeoutError):
+                    break
+                except OSError:
+                    continue
+                self._queue.extend(self._decode(data))
+        finally:
+            self.sock.settimeout(None)
+        kept = collections.deque(m for m in self._queue if m.get_type() not in kinds)
+        dropped = len(self._queue) - len(kept)
+        self._queue = kept
+        return dropped
 
     # ---- mission protocol ----------------------------------------------------------------------
     def upload(
@@ -249,6 +385,7 @@ class MavClient:
         (at least 30 ms, at most ``resend_s``): a lost item is then delivered, and a lost request is
         answered by the vehicle with a fresh request for the item it needs.
         """
+        self.drop_stale(MISSION_REPLIES)
         t0 = time.monotonic()
         n = len(items)
         ts, tc = self.target
@@ -305,7 +442,10 @@ class MavClient:
                 if progress is not None and m.type == mavlink.MAV_MISSION_ACCEPTED:
                     progress(n, n)
                 name = MISSION_RESULT_NAMES.get(m.type, str(m.type))
-                return TransferResult(m.type == 0, int(m.type), name, time.monotonic() - t0, resends)
+                elapsed = time.monotonic() - t0
+                ok = m.type == mavlink.MAV_MISSION_ACCEPTED
+                reason = "" if ok else self.reason_after(t0, time.monotonic())
+                return TransferResult(ok, int(m.type), name, elapsed, resends, reason)
 
     def download(
         self,
@@ -315,6 +455,7 @@ class MavClient:
         retries: int = 10,
     ) -> list[Item]:
         """Download a plan (MISSION_REQUEST_LIST, then MISSION_REQUEST_INT per item, then MISSION_ACK)."""
+        self.drop_stale(MISSION_REPLIES)
         ts, tc = self.target
         req = mavlink.MAVLink_mission_request_list_message(ts, tc, mission_type)
         count_msg = self._request_reply(
@@ -363,18 +504,64 @@ class MavClient:
         self, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION, *, resend_s: float = 0.5
     ) -> TransferResult:
         """MISSION_CLEAR_ALL with retries; returns the vehicle's ACK."""
+        self.drop_stale(MISSION_REPLIES)
         t0 = time.monotonic()
         ts, tc = self.target
         req = mavlink.MAVLink_mission_clear_all_message(ts, tc, mission_type)
         m = self._request_reply(req, "MISSION_ACK", lambda m: m.mission_type == mission_type, resend_s, 10)
         name = MISSION_RESULT_NAMES.get(m.type, str(m.type))
-        return TransferResult(m.type == 0, int(m.type), name, time.monotonic() - t0, 0)
+        elapsed = time.monotonic() - t0
+        ok = m.type == mavlink.MAV_MISSION_ACCEPTED
+        return TransferResult(
+            ok, int(m.type), name, elapsed, 0, "" if ok else self.reason_after(t0, time.monotonic())
+        )
+
+    # ---- the vehicle's reasons ------------------------------------------------------------------
+    def reason_after(
+        self, t_sent: float, t_ack: float, window_s: float = REASON_WINDOW_S, *, wait: bool = True
+    ) -> str:
+        """The vehicle's reason for a refusal answered at ``t_ack`` (request sent at ``t_sent``): the first
+        warning-or-worse STATUSTEXT after the ACK (waiting up to ``window_s`` for it), else one that came
+        between the request and the ACK, else any text after the ACK; "" if the vehicle said nothing."""
+        deadline = t_ack + window_s
+        while wait and not _pick(self.texts, t_ack, warning_only=True):
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            self.recv(min(left, 0.05))
+        now = time.monotonic()
+        self.texts.extend(self._assembler.flush(now, older_than_s=0.0 if now >= deadline else None))
+        text = (
+            _pick(self.texts, t_ack, warning_only=True)
+            or _pick(self.texts, t_sent, warning_only=True)
+            or _pick(self.texts, t_ack, warning_only=False)
+        )
+        return text.text if text is not None else ""
+
+    def texts_since(self, t_s: float) -> list[StatusText]:
+        """The vehicle's texts that arrived at or after ``t_s`` (monotonic), oldest first."""
+        return [t for t in self.texts if t.t_s >= t_s]
 
     # ---- commands and parameters ---------------------------------------------------------------
     def command(self, command: int, *params: float, resend_s: float = 1.0, retries: int = 3) -> int:
         """COMMAND_LONG with retries (confirmation counts up); returns the MAV_RESULT."""
+        return self.command_ack(command, *params, resend_s=resend_s, retries=retries, reason=False).result
+
+    def command_ack(
+        self,
+        command: int,
+        *params: float,
+        resend_s: float = 1.0,
+        retries: int = 3,
+        reason: bool = True,
+        window_s: float = REASON_WINDOW_S,
+    ) -> CommandAck:
+        """COMMAND_LONG with retries (confirmation counts up); the vehicle's MAV_RESULT and, for anything
+        but ACCEPTED (and ``reason``), the vehicle's reason (see :meth:`reason_after`)."""
         p = [*params, *([0.0] * (7 - len(params)))]
         ts, tc = self.target
+        self.drop_stale(("COMMAND_ACK",))  # an ACK already waiting answers an earlier command, not this one
+        t_sent = time.monotonic()
         for attempt in range(retries):
             self.send(mavlink.MAVLink_command_long_message(ts, tc, command, attempt, *p))
             deadline = time.monotonic() + resend_s
@@ -387,8 +574,42 @@ class MavClient:
                     and self._from_target(m)
                     and self._to_us(m)
                 ):
-                    return int(m.result)
+                    result = int(m.result)
+                    t_ack = time.monotonic()
+                    why = ""
+                    if reason and result != mavlink.MAV_RESULT_ACCEPTED:
+                        why = self.reason_after(t_sent, t_ack, window_s)
+                    texts = tuple(t.text for t in self.texts_since(t_sent))
+                    return CommandAck(result, MAV_RESULT_NAMES.get(result, str(result)), why, texts)
         raise LinkError(f"no COMMAND_ACK for command {command} after {retries} tries")
+
+    def wait_ready(self, timeout_s: float) -> tuple[bool, Msg | None, str]:
+        """Wait until the vehicle's HEARTBEAT ``system_status`` is neither UNINIT nor BOOT (it reports BOOT
+        until it is ready to start, e.g. until its navigation is valid).
+
+        Returns (ready, the last vehicle HEARTBEAT or None, why not: the last SYS_STATUS sensor problem or
+        STATUSTEXT of the vehicle, "" if none).
+        """
+        t0 = time.monotonic()
+        deadline = t0 + timeout_s
+        last_hb: Msg | None = None
+        sys_reason = ""
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            m = self.recv(min(left, 0.25))
+            if m is None or not self._from_target(m):
+                continue
+            kind = m.get_type()
+            if kind == "HEARTBEAT" and m.type != mavlink.MAV_TYPE_GCS:
+                last_hb = m
+                if int(m.system_status) not in NOT_READY_STATES:
+                    return True, m, ""
+            elif kind == "SYS_STATUS":
+                sys_reason = _sensor_problems(m)
+        texts = self.texts_since(t0) or list(self.texts)
+        return False, last_hb, sys_reason or (texts[-1].text if texts else "")
 
     def param_list(self, *, quiet_s: float = 1.0, timeout_s: float = 10.0) -> dict[str, float]:
         """All parameters (PARAM_REQUEST_LIST, then PARAM_REQUEST_READ for any missing index)."""
@@ -448,6 +669,34 @@ class MavClient:
                     got = float(m.param_value)
                     return got == want, got
         raise LinkError(f"no answer to setting {name}")
+
+
+def _text(raw: object) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("ascii", "replace")
+    return str(raw).split("\x00", 1)[0]
+
+
+def _pick(texts: Iterable[StatusText], t_s: float, *, warning_only: bool) -> StatusText | None:
+    """The first text at or after ``t_s`` (of severity WARNING or worse if ``warning_only``)."""
+    for t in texts:
+        if t.t_s >= t_s and (not warning_only or t.severity <= mavlink.MAV_SEVERITY_WARNING):
+            return t
+    return None
+
+
+def _sensor_problems(msg: Msg) -> str:
+    """SYS_STATUS: the sensors present and enabled but not healthy, as one phrase ("" if none)."""
+    bad = int(msg.onboard_control_sensors_present) & int(msg.onboard_control_sensors_enabled)
+    bad &= ~int(msg.onboard_control_sensors_health)
+    if not bad:
+        return ""
+    names = [
+        entry.name.removeprefix("MAV_SYS_STATUS_SENSOR_").removeprefix("MAV_SYS_STATUS_")
+        for bit, entry in mavlink.enums["MAV_SYS_STATUS_SENSOR"].items()
+        if bit & bad and bit & (bit - 1) == 0
+    ]
+    return "not healthy: " + ", ".join(names) if names else f"sensor health 0x{bad:x}"
 
 
 def _pname(raw: object) -> str:

@@ -67,9 +67,8 @@ def monitor(client: MavClient, console: Console, duration_s: float = 0.0, *, as_
                 elif k == "SYS_STATUS":
                     s["loop overruns"] = m.errors_count1
                     s["link errors"] = m.errors_comm
-                elif k == "STATUSTEXT":
-                    text = m.text if isinstance(m.text, str) else m.text.decode("ascii", "replace")
-                    s["failsafe / text"] = text
+                elif k == "STATUSTEXT" and client.texts:
+                    s["failsafe / text"] = client.texts[-1].text  # reassembled from its chunks
             if live is not None:
                 live.update(_table(s))
             elif time.monotonic() >= next_json:

@@ -12,13 +12,13 @@ How the mission reaches the vehicle (``--upload``):
 
 - ``gcs`` (default): the firmware runs with its MAVLink endpoint on a free UDP port of 127.0.0.1
   (``udpin``; nothing is sent to 14550 where other ground stations listen) and no start-up mission; the
-  runner then uploads the mission through ``auv-gcs --connect udpout:127.0.0.1:PORT upload FILE``, and sends
-  ``arm`` and ``start``, each as a process of its own (``hil_sim`` never imports ``groundstation``). The
-  vehicle refuses START until its navigation is valid, which it tells the ground station only through its
-  state, so the runner repeats ``start`` until the bench reports that simulated time has started (the bench
-  starts it on the vehicle's ONBOARD_HEARTBEAT RUNNING); a START is never repeated after that, since a
-  START in COMPLETE would fly the mission again. The ground station's .tlog files stay in the work
-  directory (``gcs_tlogs``).
+  runner then runs ``auv-gcs --connect udpout:127.0.0.1:PORT`` (each a process of its own: ``hil_sim``
+  never imports ``groundstation``) once each: ``wait-ready`` (the vehicle's HEARTBEAT says BOOT until its
+  navigation is valid, then STANDBY), ``upload FILE``, ``arm`` and ``start``. The vehicle answers every
+  command with its own verdict and says why it refuses one, so nothing is repeated and no log is read: any
+  refusal ends the run with a RuntimeError carrying the vehicle's reason. (``wait-ready`` goes first so
+  the upload meets a running control loop.) The ground station's .tlog files stay in the work directory
+  (``gcs_tlogs``).
 - ``file``: the fallback: ``auv-onboard run --mission FILE --autostart --no-mavlink``.
 
 The plan starts from the navigation pose at START; with ``gcs`` the vehicle has filtered its (still)
@@ -47,9 +47,7 @@ from onboard.protocol.conventions import wrap_pi
 
 DEPTH_M = 1.0
 UPLOAD_MODES = ("gcs", "file")
-# The bench's log line when the vehicle reports RUNNING and simulated time starts (hil_sim/bench_program.py).
-BENCH_STARTED_LOG = "simulated time starts"
-GCS_START_TIMEOUT_S = 60.0  # wall time for upload + arm + start (the firmware imports and connects first)
+GCS_START_TIMEOUT_S = 60.0  # wall time for wait-ready + upload + arm + start (the firmware starts first)
 
 
 @dataclass(frozen=True)
@@ -260,74 +258,44 @@ def _profile_sets(opts: RunOptions) -> tuple[str, ...]:
     return (faithful if opts.controller == "paper" else ()) + opts.onboard_sets
 
 
-def _bench_started(hil: subprocess.Popen[Any], hil_log: Path) -> bool:
-    """True once the bench has started simulated time (or has ended: nothing left to start)."""
-    if hil.poll() is not None:
-        return True
-    try:
-        return BENCH_STARTED_LOG in hil_log.read_text(errors="replace")
-    except OSError:
-        return False
-
-
 def upload_and_start(
     url: str,
     mission: Path,
     work: Path,
-    hil: subprocess.Popen[Any],
-    hil_log: Path,
+    hil: subprocess.Popen[Any] | None = None,
     timeout_s: float = GCS_START_TIMEOUT_S,
 ) -> dict[str, Any]:
-    """``auv-gcs upload``, ``arm`` and ``start`` against the vehicle at ``url``, until the bench runs.
+    """``auv-gcs wait-ready``, ``upload``, ``arm`` and ``start`` against the vehicle at ``url``, once each.
 
-    ``start`` is repeated (re-arming first if the vehicle fell back to IDLE) while the bench has not
-    started simulated time: the vehicle acknowledges START but its autopilot refuses it until the
-    navigation solution is valid. Raises RuntimeError with the ground station's output on failure.
+    Raises RuntimeError with the vehicle's answer (result and reason) on any refusal, and when the bench
+    (``hil``) ends meanwhile. Returns the ground station's facts for the metrics.
     """
     tlogs = work / "gcs-tlogs"
     t0 = time.monotonic()
     deadline = t0 + timeout_s
-    info: dict[str, Any] = {"gcs_tlogs": str(tlogs), "gcs_start_attempts": 0}
+    info: dict[str, Any] = {"gcs_tlogs": str(tlogs), "gcs_start_attempts": 1}
     with open(work / "gcs.log", "a") as log:
 
-        def gcs(*args: str, wait_s: float = 10.0) -> tuple[int, dict[str, Any]]:
-            left = max(1.0, min(wait_s, deadline - time.monotonic()))
-            return run_gcs(url, tlogs, *args, log=log, timeout_s=left)
-
-        def fail(what: str) -> RuntimeError:
-            tail = (work / "gcs.log").read_text(errors="replace")[-800:]
-            return RuntimeError(f"{what}; see {work}/gcs.log:\n{tail}")
-
-        # The firmware binds its MAVLink socket within a second or two of its start; auv-gcs waits for
-        # its heartbeat, and a link error (exit 2) before the deadline is tried again.
-        while True:
-            code, data = gcs("upload", str(mission), wait_s=15.0)
-            if code == 0 and data.get("ok"):
-                info["gcs_upload_s"] = round(float(data["results"][0]["elapsed_s"]), 4)
-                break
-            if code == 1 or time.monotonic() > deadline or hil.poll() is not None:
-                raise fail(f"auv-gcs upload failed (exit {code})")
-        armed = False
-        while not _bench_started(hil, hil_log):
-            if time.monotonic() > deadline:
-                raise fail(f"the vehicle did not start within {timeout_s:g} s")
-            if not armed:
-                code, data = gcs("arm")
-                armed = code == 0
-                if code == 1:  # refused: the vehicle is not in a state it can arm from
-                    raise fail(f"auv-gcs arm refused ({data.get('result')})")
-                continue
-            info["gcs_start_attempts"] += 1
-            code, data = gcs("start")
-            if code == 1:  # DENIED: not armed (any more); arm again, then start
-                armed = False
-                continue
+        def gcs(*args: str) -> dict[str, Any]:
+            if hil is not None and hil.poll() is not None:
+                raise RuntimeError(f"the bench ended (exit {hil.returncode}) before auv-gcs {args[0]}")
+            left = max(1.0, deadline - time.monotonic())
+            extra = ("--timeout", f"{left:g}") if args[0] == "wait-ready" else ()
+            code, data = run_gcs(url, tlogs, *args, *extra, log=log, timeout_s=left)
             if code != 0:
-                continue
-            # Accepted by the endpoint: wait for the autopilot to take it (the bench sees RUNNING).
-            until = time.monotonic() + 1.5
-            while time.monotonic() < until and not _bench_started(hil, hil_log):
-                time.sleep(0.05)
+                what = data.get("error") or ": ".join(
+                    str(x) for x in (data.get("result"), data.get("reason")) if x
+                )
+                raise RuntimeError(
+                    f"auv-gcs {' '.join(args)}: exit {code}: {what or 'no answer'} (see {work}/gcs.log)"
+                )
+            return data
+
+        gcs("wait-ready")
+        data = gcs("upload", str(mission))
+        info["gcs_upload_s"] = round(float(data["results"][0]["elapsed_s"]), 4)
+        gcs("arm")
+        gcs("start")
     info["gcs_wall_s"] = round(time.monotonic() - t0, 3)
     return info
 
@@ -422,7 +390,7 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
             onboard = subprocess.Popen(ob_cmd, stdout=ob_log, stderr=subprocess.STDOUT, env=env)
             if opts.upload == "gcs":
                 url = f"udpout:127.0.0.1:{mav_port}"
-                gcs_info = upload_and_start(url, mission, work, hil, work / "hil.log")
+                gcs_info = upload_and_start(url, mission, work, hil)
             try:
                 hil_code = hil.wait(max(1.0, opts.wall_timeout_s - (time.monotonic() - t0)))
             except subprocess.TimeoutExpired:

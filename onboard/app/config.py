@@ -19,6 +19,7 @@ from onboard.app.loop import LoopConfig
 from onboard.core.config import CoreConfig
 from onboard.core.control.pd import ControlParams
 from onboard.core.guidance.guidance import GuidanceParams
+from onboard.core.mission.params import MissionParams
 from onboard.core.nav.estimator import NavParams
 from onboard.core.planner.config import PlannerConfig
 from onboard.core.safety.failsafe import FailsafeParams
@@ -36,12 +37,13 @@ class OnboardConfig:
     guidance: GuidanceParams = field(default_factory=GuidanceParams)
     control: ControlParams = field(default_factory=ControlParams)
     failsafe: FailsafeParams = field(default_factory=FailsafeParams)
+    mission: MissionParams = field(default_factory=MissionParams)
     mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
 
     @property
     def core(self) -> CoreConfig:
         """The tables the pure core flies with."""
-        return CoreConfig(self.planner, self.nav, self.guidance, self.control, self.failsafe)
+        return CoreConfig(self.planner, self.nav, self.guidance, self.control, self.failsafe, self.mission)
 
 
 def config_from_dict(data: dict[str, Any], where: str) -> OnboardConfig:

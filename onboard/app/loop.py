@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any, Literal, Protocol, overload
 
 from auv_common.config import require
+from onboard.app.planning import PlanWorker
 from onboard.protocol.messages import (
     ActuatorMode,
     BusMessage,
@@ -93,6 +94,7 @@ class Autopilot(Protocol):
 
     def step(self, cache: dict[type, BusMessage], now_s: float, dt_s: float) -> AutopilotOutput: ...
     def note_overruns(self, consecutive: int) -> None: ...
+    def note_encode_fault(self, message_name: str, reason: str) -> None: ...
 
 
 @dataclass
@@ -104,8 +106,19 @@ class LoopStats:
     consecutive_overruns: int = 0
     missed_deadlines: int = 0
     encode_errors: int = 0
+    #: frames not sent because they did not encode, by DBC message name
+    encode_errors_by_message: dict[str, int] = field(default_factory=dict)
+    #: frames not encodable in the current run of ticks with encode errors (0 = none; logged once per run)
+    encode_burst: int = 0
     lateness_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
     compute_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
+
+    def note_encode_error(self, message_name: str) -> bool:
+        """Count one frame that did not encode; True if it starts a burst (the one to log)."""
+        self.encode_errors += 1
+        self.encode_errors_by_message[message_name] = self.encode_errors_by_message.get(message_name, 0) + 1
+        self.encode_burst += 1
+        return self.encode_burst == 1
 
 
 class TelemetryHistory(Sequence[dict[str, Any]]):
@@ -173,6 +186,9 @@ class ControlLoop:
         self._csv: Any = None
         self._last_sync_tick = -1
         self._last_tick_s = -math.inf
+        # Called before each step (the links' commands reach the autopilot here, on the loop thread).
+        self.before_tick: Callable[[float], None] | None = None
+        self.plans = PlanWorker.for_autopilot(autopilot, config.time_source == "lockstep")
 
     # --- one iteration -------------------------------------------------------------------------
     def take(self, msgs: list[BusMessage], t_rx_s: float | None = None) -> None:
@@ -187,15 +203,33 @@ class ControlLoop:
         t_compute = time.perf_counter()
         if self._t0_s is None:
             self._t0_s = now_s
+        if self.before_tick is not None:
+            self.before_tick(now_s)
+        if self.plans is not None:
+            self.plans.before_step()
         out = self.autopilot.step(self.cache, now_s, self.config.period_s)
-        try:
-            self.port.send(FinCmd(out.rudder_rad, out.stern_port_rad, out.stern_starboard_rad, now_s))
-            self.port.send(PropCmd(out.propeller_rps, out.mode, now_s))
-        except ValueError as exc:  # EncodeError: the autopilot saturates, so this is a bug; go neutral
-            self.stats.encode_errors += 1
-            log.error("command not encodable (%s); sending neutral SAFE command", exc)
-            self.port.send(FinCmd(0.0, 0.0, 0.0, now_s))
-            self.port.send(PropCmd(0.0, ActuatorMode.SAFE, now_s))
+        if self.plans is not None:
+            self.plans.after_step()
+        # A command that does not encode (the autopilot saturates, so it is a bug) is not sent and not
+        # replaced by a made-up one: the autopilot is told and aborts at the next tick (its abort command
+        # always encodes). The frames that do encode go out; no alive-counter value is used up by a failure.
+        faulty: list[tuple[str, str]] = []
+        for cmd in (
+            FinCmd(out.rudder_rad, out.stern_port_rad, out.stern_starboard_rad, now_s),
+            PropCmd(out.propeller_rps, out.mode, now_s),
+        ):
+            try:
+                self.port.send(cmd)
+            except ValueError as exc:  # EncodeError
+                faulty.append((type(cmd).DBC_NAME, str(exc)))
+        for name, reason in faulty:
+            first = self.stats.note_encode_error(name)
+            if first:
+                log.error("command not encodable, not sent (%s); the autopilot aborts", reason)
+            self.autopilot.note_encode_fault(name, reason)
+        if not faulty and self.stats.encode_burst:
+            log.warning("commands encodable again after %d frame(s) not sent", self.stats.encode_burst)
+            self.stats.encode_burst = 0
         # Also every tick while the time base stands still (lock-step before the start: the bench waits
         # for a RUNNING heartbeat, and one lost frame must not stall it).
         frozen = now_s <= self._last_tick_s
@@ -293,6 +327,8 @@ class ControlLoop:
         return out
 
     def close(self) -> None:
+        if self.plans is not None:
+            self.plans.close()
         if self._csv_file is not None:
             self._csv_file.close()
             self._csv_file = None

@@ -7,6 +7,7 @@ a bad one; then waits for the bus (one log line every few seconds) and runs unti
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import signal
@@ -14,19 +15,35 @@ import sys
 import threading
 import time
 import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import can
 
 from auv_common.config import ConfigError, load_toml
+from onboard.adapters.mavlink.persistence import StateDirError, StateStore
 from onboard.app.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
 from onboard.app.loop import ControlLoop
 from onboard.app.mission_file import load_mission
-from onboard.core.autopilot import Autopilot, StepOutput
+from onboard.core.autopilot import Autopilot
+from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Mission, MissionError
+from onboard.core.mission.validate import MissionCheck, check_mission
+from onboard.core.params import (
+    PARAM_NAMES,
+    BusLimits,
+    ParamError,
+    apply_param,
+    check_against_bus,
+    float32,
+    param_path,
+    param_table,
+    param_value,
+)
 from onboard.protocol.bus import BusUnavailable, open_bus
-from onboard.protocol.codec import Codec
+from onboard.protocol.codec import Codec, command_ranges
 from onboard.protocol.messages import (
     AhrsAttitude,
     AhrsRates,
@@ -65,8 +82,144 @@ def _apply_overrides(data: dict[str, Any], sets: list[str]) -> dict[str, Any]:
 
 
 def build_config(path: str | None, sets: list[str]) -> OnboardConfig:
+    """The configuration of the file (default: the packaged ``onboard.toml``) with the ``--set`` overrides,
+    without the persisted ground-station edits (those are :func:`resolve_config`'s)."""
     p = Path(path) if path else DEFAULT_CONFIG_PATH
     return config_from_dict(_apply_overrides(load_toml(p), sets), str(p))
+
+
+def bus_limits_from_dbc() -> BusLimits:
+    """The command-signal ranges of the DBC (FIN_CMD, PROP_CMD) the core's limits must stay within."""
+    return BusLimits.from_ranges(command_ranges())
+
+
+def load_persisted_params(cfg: OnboardConfig) -> dict[str, float]:
+    """The ground-station parameter edits persisted in the MAVLink state directory ({} if none)."""
+    from onboard.adapters.mavlink.persistence import StateStore
+
+    return StateStore(cfg.mavlink.resolved_state_dir()).load_params()
+
+
+@dataclass(frozen=True)
+class BootConfig:
+    """The configuration resolved at start-up (:func:`resolve_config`).
+
+    - ``config``: what the vehicle flies with: packaged defaults < file < persisted edits < ``--set``.
+    - ``configured``: the file with ``--set`` but without the persisted edits: the parameter table's
+      defaults (``param_table(configured.core, bus_limits)``), the values a ground-station edit is compared
+      with (``is_default``) to decide whether it is persisted.
+    - ``persisted``: the persisted values applied, by parameter name; ``dropped``: those refused, name ->
+      reason (never applied; the store may forget them).
+    - ``log_lines``: one line per value away from the packaged default, with its source (``file``,
+      ``persisted``, ``--set``), then one per persisted value dropped or overridden.
+    """
+
+    config: OnboardConfig
+    configured: OnboardConfig
+    bus_limits: BusLimits
+    persisted: dict[str, float]
+    dropped: dict[str, str]
+    log_lines: tuple[str, ...]
+
+
+def _set_keys(sets: list[str]) -> tuple[str, ...]:
+    return tuple(item.partition("=")[0].strip() for item in sets)
+
+
+def _covered(path: str, keys: tuple[str, ...]) -> bool:
+    """True if a ``--set`` key sets ``path`` (the key itself or a table above it)."""
+    return any(path == k or path.startswith(k + ".") for k in keys)
+
+
+def _with_core(cfg: OnboardConfig, core: CoreConfig) -> OnboardConfig:
+    names = {f.name for f in dataclasses.fields(cfg)}
+    if "core" in names:
+        return dataclasses.replace(cfg, core=core)  # type: ignore[call-arg, unused-ignore]
+    return dataclasses.replace(cfg, **{f.name: getattr(core, f.name) for f in dataclasses.fields(core)})
+
+
+def _leaves(node: Any, prefix: str = "") -> list[tuple[str, Any]]:
+    """(dotted key, value) of every configuration key (derived fields left out)."""
+    out: list[tuple[str, Any]] = []
+    for f in dataclasses.fields(node):
+        if not f.init:
+            continue
+        value = getattr(node, f.name)
+        key = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out.extend(_leaves(value, key + "."))
+        else:
+            out.append((key, value))
+    return out
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, float) and isinstance(b, int | float) and not isinstance(b, bool):
+        return float32(a) == float32(float(b))
+    return bool(a == b)
+
+
+def resolve_config(
+    config_path: str | None,
+    sets: list[str],
+    persisted: Mapping[str, float],
+    bus_limits: BusLimits | None = None,
+) -> BootConfig:
+    """The start-up configuration: packaged defaults < the config file < ``persisted`` ground-station
+    edits (by parameter name, each applied with :func:`onboard.core.params.apply_param`; one that is
+    refused is reported and dropped, never applied) < ``--set``.
+
+    Raises ``ConfigError`` (one line) for a bad file or ``--set``, or a configured limit beyond the DBC.
+    """
+    bus = bus_limits if bus_limits is not None else bus_limits_from_dbc()
+    configured = build_config(config_path, sets)
+    check_against_bus(configured.core, bus)
+    keys = _set_keys(sets)
+    core = configured.core
+    notes: list[str] = []
+    applied: dict[str, float] = {}
+    dropped: dict[str, str] = {}
+    pending: dict[str, float] = {}
+    for name, value in persisted.items():
+        try:
+            path = param_path(core, name)
+        except ParamError as exc:
+            dropped[name] = exc.reason
+            continue
+        if _covered(path, keys):
+            notes.append(f"persisted {name} = {value:g} not applied: --set {path} wins")
+        else:
+            pending[name] = value
+    # A value refused for a rule spanning several values may pass once another is in (e.g. two weights).
+    reasons: dict[str, str] = {}
+    progress = True
+    while pending and progress:
+        progress = False
+        for name, value in list(pending.items()):
+            try:
+                core = apply_param(core, name, value, bus)
+            except ParamError as exc:
+                reasons[name] = exc.reason
+                continue
+            applied[name] = param_value(core, name)
+            del pending[name]
+            progress = True
+    dropped.update({name: reasons[name] for name in pending})
+    config = _with_core(configured, core)
+
+    param_at = {param_path(core, n): n for n in PARAM_NAMES}
+    persisted_paths = {param_path(core, n) for n in applied}
+    lines = []
+    packaged = dict(_leaves(type(config)()))
+    for key, value in _leaves(config):
+        if key in packaged and _same(value, packaged[key]):
+            continue
+        source = "--set" if _covered(key, keys) else "persisted" if key in persisted_paths else "file"
+        name = f", {param_at[key]}" if key in param_at else ""
+        lines.append(f"config {key} = {value!r} ({source}{name})")
+    lines.extend(notes)
+    lines.extend(f"persisted {n} = {persisted[n]!r} dropped: {why}" for n, why in dropped.items())
+    return BootConfig(config, configured, bus, applied, dropped, tuple(lines))
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -102,15 +255,23 @@ def main(argv: list[str] | None = None) -> int:
         level=getattr(logging, str(args.log_level).upper(), logging.INFO),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    mavlink_on = not args.no_mavlink
     try:
         sets = list(args.set)
         if args.state_dir:
             sets.append(f"mavlink.state_dir={args.state_dir!r}".replace("'", '"'))
-        cfg = build_config(args.config, sets)
-        mission = load_mission(args.mission) if args.mission else None
-    except (ConfigError, MissionError) as exc:
+        cfg0 = build_config(args.config, sets)
+        mavlink_on = mavlink_on and cfg0.mavlink.enabled
+        store = StateStore(cfg0.mavlink.resolved_state_dir()) if mavlink_on else None
+        if store is not None:
+            store.check_writable()
+        boot = resolve_config(args.config, sets, store.load_params() if store is not None else {})
+        mission = load_mission(args.mission, boot.config.core) if args.mission else None
+    except (ConfigError, MissionError, StateDirError) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
         return 2
+    for line in boot.log_lines:
+        log.info("%s", line)
 
     stop = threading.Event()
 
@@ -121,30 +282,38 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, _stop)
     signal.signal(signal.SIGTERM, _stop)
     try:
-        return run(
-            cfg, mission, args.autostart, stop, mavlink_on=not args.no_mavlink, summary_json=args.summary_json
-        )
+        return run(boot, mission, args.autostart, stop, store=store, summary_json=args.summary_json)
     except (ConfigError, BusUnavailable) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ConfigError) else 1
 
 
 def run(
-    cfg: OnboardConfig,
+    boot: BootConfig,
     mission: Mission | None,
     autostart: bool,
     stop: threading.Event,
-    mavlink_on: bool = True,
+    store: StateStore | None = None,
     summary_json: str | None = None,
 ) -> int:
-    """Open the bus, build the loop and run it until ``stop`` is set."""
-    autopilot = Autopilot(cfg.core)
-    link = _start_link(autopilot, cfg.mavlink, mission) if mavlink_on and cfg.mavlink.enabled else None
+    """Open the bus, build the loop and run it until ``stop`` is set (``store`` None: no MAVLink link).
+
+    The mission: ``mission`` (``--mission``, already checked) wins over the persisted one, which the link
+    loads and checks with the same validator; the persisted progress (current goal) of that same mission is
+    restored, disarmed: START continues from it.
+    """
+    cfg = boot.config
+    autopilot = Autopilot(cfg.core, bus_limits=boot.bus_limits)
+    link = _start_link(autopilot, boot, store, mission) if store is not None else None
     if link is not None:
         mission = link.mission() if mission is None else mission
     if mission is not None and mission.goals:
         autopilot.replace_mission(mission)
         log.info("mission: %d goals, %d obstacles", len(mission.goals), len(mission.obstacles))
+        progress = link.progress() if link is not None else None
+        if progress is not None and autopilot.restore_progress(progress):
+            log.info("mission progress restored: goal %d is the current goal", progress)
+        autopilot.take_notes()  # the start-up mission is no news for a ground station
     if autostart:
         autopilot.request_autostart()
     try:
@@ -161,7 +330,7 @@ def run(
     port = BusPort(bus, clock, [codec.frame_id(c) for c in LISTEN], codec, record=cfg.bus.record or None)
     loop = ControlLoop(port, autopilot, cfg.loop)
     if link is not None:
-        loop.on_tick = _link_bridge(autopilot, link, loop.stats)
+        _bridge(loop, autopilot, link)
     log.info(
         "onboard loop: %s at %.0f Hz on %s %s",
         "lock-step" if lockstep else "real time",
@@ -224,22 +393,47 @@ def _summary(loop: ControlLoop, autopilot: Autopilot) -> dict[str, Any]:
     }
 
 
-def _start_link(autopilot: Autopilot, mavlink_cfg: Any, mission: Mission | None) -> Any:
-    from onboard.adapters.mavlink import bridge as link_bridge
+def mission_validator(autopilot: Autopilot) -> Callable[[Mission], MissionCheck]:
+    """The one mission check, with the configuration the core flies with at the time of the upload.
+
+    Leg 0 is not planned from the vehicle's pose of the moment: the vehicle plans it at START from where it
+    is then (and holds with the reason if it cannot); an upload is judged on what does not depend on where
+    the vehicle happens to be (limits, goals clear of obstacles, every leg between goals).
+    """
+
+    def validator(candidate: Mission) -> MissionCheck:
+        return check_mission(candidate, autopilot.config)
+
+    return validator
+
+
+def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, mission: Mission | None) -> Any:
+    """The MAVLink link: the one validator bound to the core's configuration, the one table."""
     from onboard.adapters.mavlink.endpoint import VehicleLink
 
-    link = VehicleLink(mavlink_cfg, params=link_bridge.param_specs(autopilot), initial_mission=mission)
+    link = VehicleLink(
+        boot.config.mavlink,
+        validator=mission_validator(autopilot),
+        params=param_table(boot.configured.core, boot.bus_limits),
+        param_values={name: param_value(boot.config.core, name) for name in PARAM_NAMES},
+        initial_mission=mission,
+        store=store,
+    )
     link.start()
     return link
 
 
-def _link_bridge(autopilot: Autopilot, link: Any, loop_stats: Any) -> Any:
-    """The per-tick exchange with the MAVLink endpoint: events in, a snapshot out (both cheap)."""
-    from onboard.adapters.mavlink import bridge as link_bridge
+def _bridge(loop: ControlLoop, autopilot: Autopilot, link: Any) -> None:
+    """The per-tick exchange with the link: requests judged before the step, notes and snapshot after."""
+    from onboard.adapters.mavlink import bridge
 
-    def on_tick(out: StepOutput, now_s: float) -> None:
-        for event in link.take_events():
-            link_bridge.apply_event(autopilot, event)
-        link.publish(link_bridge.snapshot(autopilot, out, now_s, loop_stats.overruns))
+    stats = loop.stats
 
-    return on_tick
+    def before(_now_s: float) -> None:
+        bridge.before_tick(autopilot, link)
+
+    def after(out: Any, now_s: float) -> None:  # the StepOutput of the real autopilot
+        bridge.after_tick(autopilot, link, out, now_s, stats.overruns)
+
+    loop.before_tick = before
+    loop.on_tick = after

@@ -136,6 +136,15 @@ class _TimedAutopilot:
     def note_overruns(self, consecutive: int) -> None:
         self.inner.note_overruns(consecutive)
 
+    def note_encode_fault(self, message_name: str, reason: str) -> None:
+        self.inner.note_encode_fault(message_name, reason)
+
+    def take_plan_request(self) -> Any:
+        return self.inner.take_plan_request()
+
+    def plan_done(self, request_id: int, result: Any) -> None:
+        self.inner.plan_done(request_id, result)
+
 
 def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> dict[str, float]:
     """Part (a): time ``ControlLoop.tick`` with the real autopilot, planning excluded (see the docstring)."""
@@ -254,6 +263,9 @@ class _StubAutopilot:
         return self._OUT
 
     def note_overruns(self, consecutive: int) -> None:
+        pass
+
+    def note_encode_fault(self, message_name: str, reason: str) -> None:
         pass
 
 

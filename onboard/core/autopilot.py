@@ -1,12 +1,27 @@
-"""The autopilot core: the pure pieces composed into one step per control tick.
+"""The autopilot core: the pure pieces composed into one step per control tick, and the one judge.
 
-Per tick, in this order: sensor cache -> navigation (Kalman filter) -> failsafes -> mission (events,
-planning when a goal becomes active) -> guidance -> revised PD -> saturation (inside the controller) ->
-state-dependent output (neutral, abort, hold). No clock, no bus: the loop (:mod:`onboard.app.loop`) gives the
-latest-value cache of bus messages, ``now_s`` and ``dt_s`` and sends what comes back.
+Per tick, in this order: sensor cache -> navigation (Kalman filter) -> failsafes -> mission (arrival, misses,
+the end of the mission) -> guidance -> revised PD -> saturation (inside the controller) -> state-dependent
+output (still, abort, hold, surface). No clock, no bus, no threads: the loop (:mod:`onboard.app.loop`) gives
+the latest-value cache of bus messages, ``now_s`` and ``dt_s``, sends what comes back, runs the plans the
+core asks for in a worker (:meth:`Autopilot.take_plan_request` / :meth:`Autopilot.plan_done`) and carries
+commands from the links to :meth:`Autopilot.handle`.
 
-The composition keeps the explicit states of the pure steps (filter, guidance, controller, failsafe,
-mission status, the active path); transitions are logged once, never per tick.
+:meth:`Autopilot.handle` is the only judge of every command from every source (see
+:mod:`onboard.core.commands`): it answers a :class:`~onboard.core.commands.Verdict` with a reason. What the
+operator must be told (transitions, misses, planning failures) is queued as
+:class:`~onboard.core.commands.Note` (:meth:`Autopilot.take_notes`).
+
+Truth rules kept here, in one place:
+
+- :attr:`Autopilot.actuators_live` is True exactly when the actuators may move under the vehicle's own
+  command (ARMED, RUNNING, HOLD, and COMPLETE with the ``loiter`` end action). Whenever it is False the
+  propeller command is 0 rps in the same tick (no ramp-down).
+- A goal is reached only when the vehicle's estimate crosses the goal line within ``[mission]
+  arrival_radius_m`` of the goal; farther off it is a miss: re-planned from where the vehicle is to the same
+  goal pose (the paper's homing), up to ``max_tries`` attempts, then HOLD with the reason.
+- After the last goal the end action runs: ``surface`` (propeller 0 and fins neutral at once) or ``loiter``
+  (circle the last goal at its depth). Nothing drives on past the goal.
 """
 
 from __future__ import annotations
@@ -16,28 +31,35 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from onboard.core import commands as c
 from onboard.core import control, guidance, nav
 from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import NEUTRAL, ActuatorCommand, ActuatorFlag, saturate
 from onboard.core.guidance.guidance import GuidanceReference
-from onboard.core.mission.model import Goal, Mission
+from onboard.core.mission.model import Goal, Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, MissionStatus, Transition, transition
+from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
-from onboard.core.planner.path import Path
-from onboard.core.planner.planner import plan
+from onboard.core.planner.path import ArcSegment, Path
+from onboard.core.planner.planner import inflate, plan
 from onboard.core.safety import failsafe
 from onboard.core.safety.failsafe import FailsafeFlag
 from onboard.protocol import messages as m
+from onboard.protocol.conventions import wrap_pi
 
 log = logging.getLogger(__name__)
 
-_STATE_CODE = {s: m.MissionStateCode[s.name] for s in MissionState}
 _NO_FAILSAFE = FailsafeFlag(0)
 # The states the step tests every tick, read once: in CPython 3.11 ``MissionState.RUNNING`` (an attribute of
 # an Enum class) costs ~0.3 us, a module global ~0.02 us.
+_IDLE = MissionState.IDLE
+_ARMED = MissionState.ARMED
 _RUNNING = MissionState.RUNNING
+_HOLD = MissionState.HOLD
 _COMPLETE = MissionState.COMPLETE
 _ABORT = MissionState.ABORT
+LOITER_LAPS = 1000  # a loiter path is this many laps of its circle (hours): re-planned only if it ends
+Severity = c.Severity
 
 
 @dataclass(frozen=True)
@@ -124,11 +146,73 @@ _NO_REFERENCE_ROW: dict[str, float | int | str] = dict.fromkeys(
 )
 
 
+@dataclass(frozen=True)
+class PlanRequest:
+    """A plan the core needs, computed by :func:`compute_plan` off the control thread.
+
+    ``kind``: ``goal`` (from the vehicle's pose to goal ``goal_index``) or ``loiter`` (onto a circle of
+    ``loiter_radius_m`` around the goal, then round it). ``t_s`` is when it was asked for (the core's time).
+    """
+
+    request_id: int
+    kind: str
+    goal_index: int
+    start: tuple[float, float, float]
+    start_depth_m: float
+    goal: Goal
+    obstacles: tuple[Any, ...]
+    planner: Any
+    loiter_radius_m: float
+    t_s: float
+    deadline_s: float
+
+
+def compute_plan(request: PlanRequest) -> Path:
+    """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it."""
+    g = request.goal
+    if request.kind == "goal":
+        return plan(
+            request.start,
+            (g.x_m, g.y_m, g.yaw_rad),
+            request.planner,
+            request.obstacles,
+            start_depth_m=request.start_depth_m,
+            goal_depth_m=g.depth_m,
+        )
+    # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
+    r = request.loiter_radius_m
+    for i, (ox, oy, orad) in enumerate(inflate(request.obstacles, request.planner)):
+        if abs(math.hypot(ox - g.x_m, oy - g.y_m) - r) < orad:
+            raise PlannerError("turning_circle_blocked", f"the loiter circle ({r:g} m) cuts obstacle {i}")
+    heading = request.start[2]
+    entry_yaw = wrap_pi(heading + math.pi / 2.0)
+    entry = (g.x_m + r * math.cos(heading), g.y_m + r * math.sin(heading), entry_yaw)
+    run_in = plan(
+        request.start,
+        entry,
+        request.planner,
+        request.obstacles,
+        start_depth_m=request.start_depth_m,
+        goal_depth_m=g.depth_m,
+    )
+    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_LAPS)
+    return Path(
+        (*run_in.segments, circle),
+        start_depth_m=g.depth_m,
+        end_depth_m=g.depth_m,
+        virtual_goals=run_in.virtual_goals,
+        word=run_in.word + "R",
+        cost=run_in.cost,
+        start_pose=run_in.start_pose,
+    )
+
+
 @dataclass
 class Autopilot:
     """The onboard core driven by :class:`onboard.app.loop.ControlLoop` (one :meth:`step` per tick)."""
 
     config: CoreConfig
+    bus_limits: BusLimits | None = None  # the DBC's command ranges (the app reads them); None: no SetParam
     mission: Mission = field(default_factory=lambda: Mission(()))
     status: MissionStatus = field(default_factory=MissionStatus)
     nav_state: nav.NavFilterState = field(default_factory=nav.NavFilterState.initial)
@@ -137,89 +221,366 @@ class Autopilot:
     failsafe_state: failsafe.FailsafeState = field(default_factory=failsafe.FailsafeState)
     path: Path | None = None
     path_goal_index: int = -1
+    path_kind: str = ""  # "goal" or "loiter": what ``path`` flies
     planner_error: str = ""
     consecutive_overruns: int = 0
     last_nav: nav.NavState | None = None
     goals_reached: int = 0
-    events: list[str] = field(default_factory=list)  # transitions since the last take_events()
+    attempt: int = 1  # attempts at the current goal (1 = the first)
+    notes: list[c.Note] = field(default_factory=list)  # for the operator, since the last take_notes()
     autostart_pending: bool = False
     actuator_failsafe: bool = False  # the latest PROP_STATUS / FIN_STATUS failsafe flag
+    encode_fault: str = ""  # a command frame that could not be encoded (set by the loop)
+    _plan_out: PlanRequest | None = None  # asked for, not yet taken by the loop
+    _plan_wait: PlanRequest | None = None  # taken (or asked for): the result is awaited
+    _plan_ids: int = 0
+    _now_s: float = 0.0
 
-    # --- commands from outside (mission file, MAVLink) ------------------------------------------
-    def apply(self, event: MissionEvent, detail: str = "") -> Transition:
-        """Apply a mission event; log accepted transitions once, rejected ones with the reason.
+    # --- what the links read --------------------------------------------------------------------
+    @property
+    def actuators_live(self) -> bool:
+        """True exactly when the actuators may move under the vehicle's own command."""
+        state = self.status.state
+        if state is _COMPLETE:
+            return self.config.mission.end_action == "loiter"
+        return state is _ARMED or state is _RUNNING or state is _HOLD
 
-        START (and RESUME) need a valid navigation solution (the vehicle does not run blind) and an actuator
-        node that is not in its latched failsafe (ARMED sends SAFE, which clears it). An accepted START
-        plans afresh from the current pose; leaving ARMED cancels a pending autostart.
-        """
-        if event in (MissionEvent.START, MissionEvent.RESUME):
-            why = ""
-            if not (self.last_nav and self.last_nav.valid):
-                why = "navigation not valid yet"
-            elif self.actuator_failsafe:
-                why = "the actuator node reports its failsafe (the SAFE command sent while ARMED clears it)"
-            if why:
-                reason = f"{event.value} rejected: {why}"
-                log.warning("mission event %s", reason)
-                return Transition(self.status, False, reason)
-        goal_count = len(self.mission.goals) if event is MissionEvent.MISSION_REPLACED else None
-        result = transition(self.status, event, goal_count=goal_count, detail=detail)
-        if result.accepted:
-            if result.status.state != self.status.state or event is not MissionEvent.GOAL_REACHED:
-                log.info(
-                    "mission %s -> %s (%s)", self.status.state.name, result.status.state.name, result.reason
-                )
-                self.events.append(f"{self.status.state.name}->{result.status.state.name}: {result.reason}")
-            self.status = result.status
-            if event is MissionEvent.START:
-                self.path = None
-                self.path_goal_index = -1
-            if self.status.state is not MissionState.ARMED:
-                self.autostart_pending = False
+    @property
+    def ready(self) -> tuple[bool, str]:
+        """(True, "") when a START would pass the vehicle's own checks, else (False, why)."""
+        if not (self.last_nav and self.last_nav.valid):
+            return False, "navigation not valid yet"
+        if self.actuator_failsafe:
+            return (
+                False,
+                "the actuator node reports its failsafe (the SAFE command sent while ARMED clears it)",
+            )
+        return True, ""
+
+    def take_notes(self) -> list[c.Note]:
+        out, self.notes = self.notes, []
+        return out
+
+    def take_events(self) -> list[str]:
+        """The notes as plain lines (for logs and tests)."""
+        return [n.text for n in self.take_notes()]
+
+    def _note(self, severity: c.Severity, text: str) -> None:
+        self.notes.append(c.Note(severity, text))
+
+    # --- the one judge ----------------------------------------------------------------------------
+    def handle(self, command: c.Command) -> c.Verdict:
+        """Judge and carry out one command; log it; return the verdict with its reason."""
+        verdict = self._judge(command)
+        src = getattr(command, "source", "") or "onboard"
+        name = type(command).__name__
+        if verdict.accepted:
+            log.info("%s from %s: %s", name, src, verdict.reason)
         else:
-            log.warning("mission event %s rejected: %s", event.value, result.reason)
+            log.warning("%s from %s %s: %s", name, src, verdict.outcome.value, verdict.reason)
+        return verdict
+
+    def _judge(self, command: c.Command) -> c.Verdict:
+        state = self.status.state
+        src = getattr(command, "source", "")
+        if isinstance(command, c.Arm):
+            if state in (_ARMED, _RUNNING, _HOLD):
+                return c.accepted(f"already armed ({state.name})")
+            if state is _ABORT:
+                return c.denied("in ABORT: disarm first to acknowledge the abort")
+            return self._event(MissionEvent.ARM, src)
+        if isinstance(command, c.Disarm):
+            if state is _IDLE:
+                return c.accepted("already disarmed")
+            if state is _RUNNING and not command.forced:
+                return c.denied("RUNNING: hold (or force the disarm) first")
+            event = MissionEvent.DISARM_FORCED if command.forced else MissionEvent.DISARM
+            return self._event(event, src)
+        if isinstance(command, c.Start):
+            return self._start(command.first_goal, src)
+        if isinstance(command, c.Hold):
+            if state is _HOLD:
+                return c.accepted("already holding")
+            if state is not _RUNNING:
+                return c.denied(f"hold: not running ({state.name})")
+            return self._event(MissionEvent.HOLD, src)
+        if isinstance(command, c.Resume):
+            if state is _RUNNING:
+                return c.accepted("already running")
+            if state is not _HOLD:
+                return c.denied(f"resume: not holding ({state.name})")
+            return self._start(None, src)
+        if isinstance(command, c.Abort):
+            if state is _ABORT:
+                return c.accepted("already in ABORT")
+            return self._event(MissionEvent.ABORT, f"{command.reason} ({src})" if src else command.reason)
+        if isinstance(command, c.SetCurrent):
+            return self._set_current(command.index)
+        if isinstance(command, c.SetMode):
+            if command.mode == "mission":
+                return self._start(None, src)
+            if command.mode == "loiter":
+                return self._judge(c.Hold(src))
+            if command.mode == "surface":
+                return self._judge(c.Abort("mode surface", src))
+            if state in (_RUNNING, _HOLD):
+                return c.denied(f"{state.name}: hold or abort to leave the mission")
+            return c.accepted(f"ready ({state.name}): nothing to change")
+        if isinstance(command, c.ReplaceMission):
+            return self._replace(command.mission, command.goals_changed, src)
+        if isinstance(command, c.SetParam):
+            return self._set_param(command.name, command.value)
+        if isinstance(command, c.LinkLost):
+            if command.action == "hold" and state is _RUNNING:
+                return self._event(MissionEvent.HOLD, "ground-station link lost", severity=c.Severity.WARNING)
+            if command.action == "surface" and self.status.active:
+                return self._event(MissionEvent.ABORT, "ground-station link lost: surface")
+            return c.accepted(f"ground-station link lost: {command.action} ({state.name})")
+        return c.Verdict(c.Outcome.UNSUPPORTED, f"unknown command {type(command).__name__}")
+
+    def _event(
+        self,
+        event: MissionEvent,
+        detail: str = "",
+        goal_index: int | None = None,
+        severity: c.Severity | None = None,
+    ) -> c.Verdict:
+        result = self.apply(event, detail, goal_index=goal_index, severity=severity)
+        return c.accepted(result.reason) if result.accepted else c.denied(result.reason)
+
+    def _start(self, first_goal: int | None, src: str) -> c.Verdict:
+        state = self.status.state
+        n = len(self.mission.goals)
+        if n == 0:
+            return c.denied("the mission has no goals: upload one first")
+        if first_goal is not None and not 0 <= first_goal < n:
+            return c.denied(f"no goal {first_goal}: the mission has {n} goals")
+        if state is _RUNNING:
+            if first_goal is not None and first_goal != self.status.goal_index:
+                return self._set_current(first_goal)
+            return c.accepted("already running")
+        if state is _IDLE:
+            return c.denied("disarmed: arm first")
+        if state is _COMPLETE:
+            return c.denied("the mission is complete: arm to fly it again")
+        if state is _ABORT:
+            return c.denied("in ABORT: disarm first to acknowledge the abort")
+        index = self.status.goal_index if first_goal is None else first_goal
+        if not 0 <= index < n:
+            return c.denied(f"no goal {index} to fly: the mission has {n} goals (set the current goal)")
+        ok, why = self.ready
+        if not ok:
+            return c.not_now(why)
+        event = MissionEvent.RESUME if state is _HOLD and first_goal is None else MissionEvent.START
+        return self._event(event, src, goal_index=index)
+
+    def _set_current(self, index: int) -> c.Verdict:
+        n = len(self.mission.goals)
+        if not 0 <= index < n:
+            return c.denied(f"no goal {index}: the mission has {n} goals")
+        if self.status.state in (_COMPLETE, _ABORT):
+            return c.denied(f"{self.status.state.name}: the current goal cannot change now")
+        self.status = replace(self.status, goal_index=index)
+        self.attempt = 1
+        self._drop_path()
+        return c.accepted(f"current goal {index}")
+
+    def _replace(self, mission: Mission, goals_changed: bool, src: str) -> c.Verdict:
+        try:
+            mission.validate()
+        except MissionError as exc:
+            return c.denied(f"mission refused: {exc}")
+        if not goals_changed:
+            self.mission = mission
+            if self.status.state is _RUNNING and self.path_kind == "goal":
+                self._ask_plan("goal")  # keep flying the old path until the new one arrives
+            elif self.status.state is _COMPLETE and self.path_kind == "loiter":
+                self._ask_plan("loiter")
+            return c.accepted(f"fence replaced ({len(mission.obstacles)} obstacles)")
+        old = self.mission
+        self.mission = mission
+        result = self.apply(
+            MissionEvent.MISSION_REPLACED,
+            src,
+            goal_count=len(mission.goals),
+        )
+        if not result.accepted:
+            self.mission = old
+            return c.denied(result.reason)
+        self.goals_reached = 0
+        self.attempt = 1
+        self._drop_path()
+        return c.accepted(result.reason)
+
+    def _set_param(self, name: str, value: float) -> c.Verdict:
+        from onboard.core import params
+
+        try:
+            in_force = params.param_value(self.config, name)
+        except params.ParamError as exc:
+            return c.denied(exc.reason)
+        if self.bus_limits is None:
+            return c.denied(f"{name}: parameters cannot be set (the bus limits are unknown)", value=in_force)
+        try:
+            self.config = params.apply_param(self.config, name, value, self.bus_limits)
+        except params.ParamError as exc:
+            return c.denied(exc.reason, value=in_force)
+        return c.accepted(f"{name} = {value:g}", value=params.param_value(self.config, name))
+
+    # --- mission events (the state machine applied; kept for the tests and the step) ---------------
+    def apply(
+        self,
+        event: MissionEvent,
+        detail: str = "",
+        *,
+        goal_count: int | None = None,
+        goal_index: int | None = None,
+        severity: c.Severity | None = None,
+    ) -> Transition:
+        """Apply a mission event to the state machine; note accepted transitions once (``severity``: of
+        the note; default CRITICAL for ABORT, else INFO)."""
+        if event in (MissionEvent.START, MissionEvent.RESUME):
+            ok, why = self.ready
+            if not ok:
+                return Transition(self.status, False, f"{event.value} rejected: {why}")
+        if event is MissionEvent.MISSION_REPLACED and goal_count is None:
+            goal_count = len(self.mission.goals)
+        result = transition(
+            self.status,
+            event,
+            goal_count=goal_count,
+            goal_index=goal_index,
+            detail=detail,
+            complete_armed=self.config.mission.end_action == "loiter",
+        )
+        if not result.accepted:
+            log.debug("mission event %s rejected: %s", event.value, result.reason)
+            return result
+        before = self.status.state
+        self.status = result.status
+        after = result.status.state
+        if after is not before or event is not MissionEvent.GOAL_REACHED:
+            log.info("mission %s -> %s (%s)", before.name, after.name, result.reason)
+        if severity is None:
+            severity = c.Severity.CRITICAL if after is _ABORT else c.Severity.INFO
+        self._note(severity, result.reason)
+        if event in (MissionEvent.START, MissionEvent.RESUME):
+            self.attempt = 1
+            self._drop_path()
+            self._ask_plan("goal")  # afresh, from where the vehicle is
+        if after is not _RUNNING and after is not _COMPLETE:
+            self._drop_path()
+        if after is not _ARMED:
+            self.autostart_pending = False
         return result
 
-    def replace_mission(self, mission: Mission) -> Transition:
-        """Replace the mission atomically (already validated); re-plan from the current pose if running."""
-        mission.validate()
-        old_mission, old_status = self.mission, self.status
-        self.mission = mission
-        result = self.apply(MissionEvent.MISSION_REPLACED)
-        if not result.accepted:
-            self.mission, self.status = old_mission, old_status
-            return result
-        self.path = None
-        self.path_goal_index = -1
-        return result
+    def replace_mission(self, mission: Mission) -> c.Verdict:
+        """A new mission (goals and fence) from a trusted door (tests, start-up): :meth:`handle`."""
+        return self.handle(c.ReplaceMission(mission, True, "start-up"))
+
+    def restore_progress(self, goal_index: int) -> bool:
+        """At boot: make the persisted progress the current goal (IDLE only; START continues from it)."""
+        if self.status.state is not _IDLE or not 0 <= goal_index < len(self.mission.goals):
+            return False
+        self.status = replace(
+            self.status, goal_index=goal_index, reason=f"progress restored: goal {goal_index}"
+        )
+        return True
 
     def request_autostart(self) -> None:
         """Arm now and start as soon as the navigation solution is valid (``--autostart``)."""
-        self.autostart_pending = self.apply(MissionEvent.ARM, "autostart").accepted
+        self.autostart_pending = self.handle(c.Arm("autostart")).accepted
 
     def set_current(self, index: int) -> bool:
-        """Make goal ``index`` the active goal (re-planned at the next tick when running)."""
-        if not 0 <= index < len(self.mission.goals):
-            log.warning(
-                "set current goal %d rejected: the mission has %d goals", index, len(self.mission.goals)
-            )
-            return False
-        self.status = replace(self.status, goal_index=index)
-        self.path_goal_index = -1
-        return True
+        return self.handle(c.SetCurrent(index, "onboard")).accepted
 
     def note_overruns(self, consecutive: int) -> None:
         self.consecutive_overruns = consecutive
 
-    def take_events(self) -> list[str]:
-        out, self.events = self.events, []
-        return out
+    def note_encode_fault(self, message: str, reason: str) -> None:
+        """The loop could not encode a command frame: a fault (an ABORT at the next tick when moving)."""
+        self.encode_fault = f"command not encodable: {message}: {reason}"
 
-    # --- one tick -------------------------------------------------------------------------------
+    # --- planning off the control thread ------------------------------------------------------------
+    def take_plan_request(self) -> PlanRequest | None:
+        """The plan the core asks for (once): the loop computes it with :func:`compute_plan`."""
+        req, self._plan_out = self._plan_out, None
+        return req
+
+    @property
+    def plan_pending(self) -> bool:
+        return self._plan_wait is not None
+
+    def plan_done(self, request_id: int, result: Path | PlannerError) -> None:
+        """The worker's answer to request ``request_id`` (a stale one, e.g. after a HOLD, is dropped)."""
+        req = self._plan_wait
+        if req is None or req.request_id != request_id:
+            return
+        self._plan_wait = None
+        self._plan_out = None
+        state = self.status.state
+        wanted = (req.kind == "goal" and state is _RUNNING and req.goal_index == self.status.goal_index) or (
+            req.kind == "loiter" and state is _COMPLETE
+        )
+        if not wanted:
+            return
+        if isinstance(result, PlannerError):
+            self.planner_error = f"{result.reason}: {result}"
+            log.error("cannot plan %s %d: %s", req.kind, req.goal_index, self.planner_error)
+            if req.kind == "loiter":
+                self._note(c.Severity.WARNING, f"loiter not possible ({self.planner_error}): surfacing")
+                self.path, self.path_kind = None, "surface"
+            else:
+                self.apply(
+                    MissionEvent.HOLD,
+                    f"cannot plan goal {req.goal_index}: {self.planner_error}",
+                    severity=c.Severity.WARNING,
+                )
+            return
+        self.planner_error = ""
+        self.path, self.path_goal_index, self.path_kind = result, req.goal_index, req.kind
+        self.guidance_state = guidance.GuidanceState()
+        self.controller_state = control.ControllerState(command=self.controller_state.command)
+        log.info(
+            "planned %s %d: %s, %.2f m, %d virtual goals",
+            req.kind,
+            req.goal_index,
+            result.word,
+            result.length_m,
+            len(result.virtual_goals),
+        )
+
+    def _drop_path(self) -> None:
+        self.path, self.path_goal_index, self.path_kind = None, -1, ""
+        self._plan_out = self._plan_wait = None
+
+    def _ask_plan(self, kind: str) -> None:
+        n = self.last_nav
+        if n is None:
+            return
+        index = self.status.goal_index if kind == "goal" else len(self.mission.goals) - 1
+        radius = self.config.mission.loiter_radius_m or 2.0 * self.config.planner.turning_radius_m
+        self._plan_ids += 1
+        req = PlanRequest(
+            self._plan_ids,
+            kind,
+            index,
+            (n.x_m, n.y_m, n.yaw_rad),
+            max(n.depth_m, 0.0),
+            self.mission.goals[index],
+            self.mission.obstacles,
+            self.config.planner,
+            radius,
+            self._now_s,
+            self.config.mission.plan_deadline_s,
+        )
+        self._plan_out = self._plan_wait = req
+
+    # --- one tick ---------------------------------------------------------------------------------
     def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> StepOutput:
         """One tick at ``now_s`` (s) of period ``dt_s`` (s) from the latest-value cache of bus messages."""
         cfg = self.config
+        self._now_s = now_s
         nav_state, self.nav_state, _ = nav.step(nav_inputs(cache), self.nav_state, cfg.nav, now_s)
         self.last_nav = nav_state
         prop_status = cache.get(m.PropStatus)
@@ -228,16 +589,17 @@ class Autopilot:
             (prop_status is not None and prop_status.failsafe)
             or (fin_status is not None and fin_status.failsafe)
         )
-        if (
-            self.autostart_pending
-            and nav_state.valid
-            and not self.actuator_failsafe
-            and self.status.state is MissionState.ARMED
-        ):
+        if self.autostart_pending and self.status.state is _ARMED and self.ready[0]:
             self.autostart_pending = False
-            self.apply(MissionEvent.START, "autostart: navigation valid")
+            self.handle(c.Start(None, "autostart: navigation valid"))
 
         fs_flags = _NO_FAILSAFE
+        if self.encode_fault:
+            fault, self.encode_fault = self.encode_fault, ""
+            if self.status.active or self.status.state is _ARMED:
+                self.apply(MissionEvent.FAILSAFE, detail=fault)
+            else:
+                self._note(c.Severity.ERROR, fault)
         if self.status.active:
             result, self.failsafe_state = failsafe.check(
                 nav_state, self.consecutive_overruns > 0, self.failsafe_state, cfg.failsafe
@@ -248,38 +610,79 @@ class Autopilot:
             elif self.actuator_failsafe:
                 self.apply(MissionEvent.FAILSAFE, detail="the actuator node is in its failsafe")
 
+        req = self._plan_wait
+        if req is not None and now_s - req.t_s > cfg.mission.plan_deadline_s:
+            self._plan_wait = self._plan_out = None
+            deadline = cfg.mission.plan_deadline_s
+            why = f"planning {req.kind} {req.goal_index} missed its deadline ({deadline:g} s)"
+            self.planner_error = why
+            if req.kind == "goal" and self.status.state is _RUNNING:
+                self.apply(MissionEvent.HOLD, why, severity=c.Severity.WARNING)
+            else:
+                self._note(c.Severity.WARNING, why)
+
         reference: GuidanceReference | None = None
         command = NEUTRAL
         state = self.status.state
-        if state is _RUNNING or state is _COMPLETE:
-            if state is _RUNNING and (self.path is None or self.path_goal_index != self.status.goal_index):
-                self._plan_active_goal(nav_state)
-            state = self.status.state  # planning may HOLD
-            if self.path is not None and (state is _RUNNING or state is _COMPLETE):
-                complete = state is _COMPLETE
+        if state is _RUNNING:
+            if (
+                self.path is None
+                or self.path_goal_index != self.status.goal_index
+                or self.path_kind != "goal"
+            ):
+                if self._plan_wait is None or self._plan_wait.goal_index != self.status.goal_index:
+                    self._ask_plan("goal")
+            elif self.path is not None:
                 reference, self.guidance_state, _ = guidance.step(
-                    nav_state, self.path, self.guidance_state, cfg.guidance, dt_s, complete=complete
+                    nav_state, self.path, self.guidance_state, cfg.guidance, dt_s
                 )
-                if reference.arrived and not complete:
-                    self.goals_reached += 1
-                    self.apply(MissionEvent.GOAL_REACHED)
+                if reference.arrived:
+                    self._arrived(nav_state)
+                if self.status.state is _RUNNING and self.path is not None:
+                    command, self.controller_state, _ = control.step(
+                        nav_state, reference, self.controller_state, cfg.control, dt_s
+                    )
+                else:
+                    reference = None
+        elif state is _COMPLETE and cfg.mission.end_action == "loiter" and self.path_kind != "surface":
+            if self.path is None or self.path_kind != "loiter":
+                if self._plan_wait is None:
+                    self._ask_plan("loiter")
+            else:
+                reference, self.guidance_state, _ = guidance.step(
+                    nav_state, self.path, self.guidance_state, cfg.guidance, dt_s
+                )
+                if reference.arrived:  # after LOITER_LAPS laps: round again
+                    self._ask_plan("loiter")
                 command, self.controller_state, _ = control.step(
                     nav_state, reference, self.controller_state, cfg.control, dt_s
                 )
-        state = self.status.state  # GOAL_REACHED may have completed the mission
+        state = self.status.state  # arrival may have completed the mission or held it
+        live = self.actuators_live
         if state is _ABORT:
             command = saturate(
                 failsafe.abort_command(cfg.failsafe), self.controller_state.command, cfg.control.limits, dt_s
             )
+            command = _propeller_off(command)
             self.controller_state = control.ControllerState(command=command)
-        elif not (state is _RUNNING or state is _COMPLETE) or reference is None:
-            # IDLE, ARMED, HOLD (or no path yet): propeller off, fins neutral, rate-limited.
+        elif state is _COMPLETE and not (live and reference is not None):
+            command = NEUTRAL  # surface: propeller 0 and fins neutral at once
+            self.controller_state = control.ControllerState(command=command)
+        elif reference is None:
+            # IDLE, ARMED, HOLD, or RUNNING while the plan is computed: fins neutral, propeller off
             command = saturate(NEUTRAL, self.controller_state.command, cfg.control.limits, dt_s)
+            if not live:
+                command = _propeller_off(command)
             self.controller_state = control.ControllerState(command=command)
+        mode = (
+            m.ActuatorMode.ABORT
+            if state is _ABORT
+            else (m.ActuatorMode.ARMED if live and state is not _ARMED else m.ActuatorMode.SAFE)
+        )
         return StepOutput(
             command=command,
-            mode=_ACTUATOR_MODE[state],
-            mission_state=_STATE_CODE[state],
+            mode=mode,
+            mission_state=state,
             status=self.status,
             nav=nav_state,
             reference=reference,
@@ -287,52 +690,47 @@ class Autopilot:
             planner_error=self.planner_error,
         )
 
-    def _plan_active_goal(self, nav_state: nav.NavState) -> None:
-        """Plan from the current pose to the active goal; on a planner error, HOLD with the reason."""
-        if not 0 <= self.status.goal_index < len(self.mission.goals):
-            # e.g. a mission cleared while held, then resumed: nothing to fly, keep still.
-            self.path = None
-            self.path_goal_index = self.status.goal_index
-            self.apply(MissionEvent.HOLD, detail=f"no goal {self.status.goal_index} in the mission")
+    def _arrived(self, nav_state: nav.NavState) -> None:
+        """The estimate crossed the goal line: reached within the arrival radius, else a miss."""
+        index = self.status.goal_index
+        goal = self.mission.goals[index]
+        miss_m = math.hypot(goal.x_m - nav_state.x_m, goal.y_m - nav_state.y_m)
+        radius = self.config.mission.arrival_radius_m
+        if miss_m <= radius:
+            self.goals_reached += 1
+            self.attempt = 1
+            self.apply(MissionEvent.GOAL_REACHED, f"{miss_m:.2f} m from it")
+            if self.status.state is _RUNNING:
+                self._drop_path()
+                self._ask_plan("goal")  # the next goal, from here
+            else:  # COMPLETE: the end action starts now
+                self.path, self.path_goal_index, self.path_kind = None, -1, ""
             return
-        goal: Goal = self.mission.goals[self.status.goal_index]
-        self.guidance_state = guidance.GuidanceState()
-        self.controller_state = control.ControllerState(command=self.controller_state.command)
-        try:
-            self.path = plan(
-                (nav_state.x_m, nav_state.y_m, nav_state.yaw_rad),
-                (goal.x_m, goal.y_m, goal.yaw_rad),
-                self.config.planner,
-                self.mission.obstacles,
-                start_depth_m=max(nav_state.depth_m, 0.0),
-                goal_depth_m=goal.depth_m,
+        tries = self.config.mission.max_tries
+        if self.attempt < tries:
+            self.attempt += 1
+            self._note(
+                c.Severity.WARNING,
+                f"goal {index} missed by {miss_m:.2f} m (arrival radius {radius:g} m): "
+                f"re-planning, try {self.attempt} of {tries}",
             )
-            self.planner_error = ""
-            self.path_goal_index = self.status.goal_index
-            log.info(
-                "planned goal %d: %s, %.2f m, %d virtual goals",
-                self.status.goal_index,
-                self.path.word,
-                self.path.length_m,
-                len(self.path.virtual_goals),
-            )
-        except PlannerError as exc:
-            self.path = None
-            self.planner_error = f"{exc.reason}: {exc}"
-            log.error("cannot plan goal %d: %s", self.status.goal_index, self.planner_error)
-            self.apply(MissionEvent.HOLD, detail=f"planner: {self.planner_error}")
+            self._drop_path()
+            self._ask_plan("goal")
+            return
+        self.apply(
+            MissionEvent.HOLD,
+            f"goal {index} missed by {miss_m:.2f} m after {tries} tries",
+            severity=c.Severity.WARNING,
+        )
 
 
-def _actuator_mode(state: MissionState) -> m.ActuatorMode:
-    if state is MissionState.ABORT:
-        return m.ActuatorMode.ABORT
-    if state is MissionState.IDLE or state is MissionState.ARMED:
-        # Propeller off and fins neutral either way; SAFE also clears a latched actuator failsafe.
-        return m.ActuatorMode.SAFE
-    return m.ActuatorMode.ARMED
-
-
-_ACTUATOR_MODE = {s: _actuator_mode(s) for s in MissionState}
+def _propeller_off(command: ActuatorCommand) -> ActuatorCommand:
+    """The same fin command with the propeller at 0 rps at once (the actuators are not live)."""
+    if command.propeller_rps == 0.0:
+        return command
+    return ActuatorCommand(
+        command.rudder_rad, command.stern_port_rad, command.stern_starboard_rad, 0.0, command.flags
+    )
 
 
 def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:

@@ -45,7 +45,16 @@ class ProtocolError(Exception):
 
 
 class EncodeError(ProtocolError, ValueError):
-    """A message that cannot be put on the bus (NaN, out of the DBC range, wrong type)."""
+    """A message that cannot be put on the bus (NaN, out of the DBC range, wrong type).
+
+    ``message_name`` is the DBC name of the message ("" if it is not a bus message), ``signal`` the
+    offending signal ("" if not one in particular).
+    """
+
+    def __init__(self, message: str, message_name: str = "", signal: str = "") -> None:
+        super().__init__(message)
+        self.message_name = message_name
+        self.signal = signal
 
 
 class FrameError(ProtocolError):
@@ -194,16 +203,24 @@ class Codec:
         spec = self._by_cls.get(type(msg))
         if spec is None:
             raise EncodeError(f"not a bus message: {msg!r}")
+        dbc_name = spec.cls.DBC_NAME
         values: dict[str, float | int] = {}
         for name, (lo, hi) in zip(spec.fields, spec.ranges, strict=True):
             value = getattr(msg, name)
-            number = float(value)
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise EncodeError(f"{dbc_name}.{name} is not a number ({value!r})", dbc_name, name) from None
             if not math.isfinite(number):
-                raise EncodeError(f"{spec.cls.DBC_NAME}.{name} is not finite ({value!r}); refusing to encode")
+                raise EncodeError(
+                    f"{dbc_name}.{name} is not finite ({value!r}); refusing to encode", dbc_name, name
+                )
             if not lo <= number <= hi:
                 raise EncodeError(
-                    f"{spec.cls.DBC_NAME}.{name} = {number!r} is outside the DBC range [{lo}, {hi}]; "
-                    "saturate before encoding"
+                    f"{dbc_name}.{name} = {number!r} is outside the DBC range [{lo}, {hi}]; "
+                    "saturate before encoding",
+                    dbc_name,
+                    name,
                 )
             values[name] = int(value) if isinstance(value, bool | int) else number
         values["e2e_counter"] = counter & 0xF
@@ -217,7 +234,7 @@ class Codec:
             else:
                 data = bytearray(spec.dbc.encode(values, scaling=True, strict=False))
         except (cantools.database.EncodeError, ValueError, OverflowError) as exc:
-            raise EncodeError(f"{spec.cls.DBC_NAME}: {exc}") from None
+            raise EncodeError(f"{dbc_name}: {exc}", dbc_name) from None
         data[CRC_BYTE_INDEX] = frame_crc(spec.frame_id, bytes(data))
         return spec.frame_id, bytes(data)
 
@@ -265,14 +282,31 @@ class Codec:
 
 @dataclass
 class FrameSender:
-    """Stateful encoder: adds the next alive counter for each id."""
+    """Stateful encoder: adds the next alive counter for each id.
+
+    A counter value is used up only by a frame that was produced: a message that fails to encode raises
+    :class:`EncodeError` and leaves the counter where it was, so the next good frame continues the sequence
+    and the receiver sees no jump. A sender that can still fail after encoding (a bus write) calls
+    :meth:`encode` with ``commit=False`` and :meth:`commit` once the frame is really out.
+    """
 
     codec: Codec
     counters: TxCounters = field(default_factory=TxCounters)
 
-    def encode(self, msg: BusMessage) -> tuple[int, bytes]:
-        frame_id = self.codec.frame_id(type(msg))
-        return self.codec.encode(msg, self.counters.next(frame_id))
+    def encode(self, msg: BusMessage, commit: bool = True) -> tuple[int, bytes]:
+        """(arbitration id, 8 bytes) of ``msg`` with its id's next alive counter; raises EncodeError."""
+        spec = self.codec._by_cls.get(type(msg))
+        if spec is None:
+            raise EncodeError(f"not a bus message: {msg!r}")
+        frame_id = spec.frame_id
+        frame = self.codec.encode(msg, self.counters.peek(frame_id))
+        if commit:
+            self.counters.advance(frame_id)
+        return frame
+
+    def commit(self, frame_id: int) -> None:
+        """Use up the counter value of the frame last encoded with ``commit=False`` for ``frame_id``."""
+        self.counters.advance(frame_id)
 
 
 @dataclass
@@ -315,3 +349,28 @@ class FrameReceiver:
     @property
     def rejected_total(self) -> int:
         return sum(self.rejected.values())
+
+
+#: The command frames whose signal ranges bound the onboard configuration (:func:`command_ranges`).
+COMMAND_MESSAGES: Final = ("FIN_CMD", "PROP_CMD")
+
+
+def command_ranges(dbc_path: str | Path = DBC_PATH) -> dict[str, tuple[float, float]]:
+    """The DBC (minimum, maximum) of every physical signal of FIN_CMD and PROP_CMD, keyed
+    ``"MESSAGE.signal"`` (e.g. ``"FIN_CMD.rudder_rad"``), in the signal's own SI unit (rad, rev/s).
+
+    The E2E signals and enumerations without a unit (``PROP_CMD.mode``) are left out. The core turns these
+    into :class:`onboard.core.params.BusLimits`, so no configured limit can command an unencodable frame.
+    """
+    db = cantools.database.load_file(str(dbc_path), strict=True)
+    if not isinstance(db, cantools.database.can.Database):
+        raise ProtocolError(f"{dbc_path} is not a CAN database")
+    ranges: dict[str, tuple[float, float]] = {}
+    for message in COMMAND_MESSAGES:
+        for sig in db.get_message_by_name(message).signals:
+            if sig.name in E2E_SIGNALS or not sig.unit:
+                continue
+            if sig.minimum is None or sig.maximum is None:
+                raise ProtocolError(f"{message}.{sig.name} has no range in {dbc_path}")
+            ranges[f"{message}.{sig.name}"] = (float(sig.minimum), float(sig.maximum))
+    return ranges

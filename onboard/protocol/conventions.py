@@ -28,6 +28,20 @@ def wrap_pi(angle_rad: float) -> float:
     return a - math.pi
 
 
+def body_to_ned(
+    roll_rad: float, pitch_rad: float, yaw_rad: float, u: float, v: float, w: float
+) -> tuple[float, float, float]:
+    """A body-frame (FRD) vector u, v, w rotated to the world frame (NED): R = Rz(yaw) Ry(pitch) Rx(roll)
+    (ZYX Euler angles, Fossen eq. 2.18). NaN in, NaN out."""
+    cr, sr = math.cos(roll_rad), math.sin(roll_rad)
+    cp, sp = math.cos(pitch_rad), math.sin(pitch_rad)
+    cy, sy = math.cos(yaw_rad), math.sin(yaw_rad)
+    north = cy * cp * u + (cy * sp * sr - sy * cr) * v + (cy * sp * cr + sy * sr) * w
+    east = sy * cp * u + (sy * sp * sr + cy * cr) * v + (sy * sp * cr - cy * sr) * w
+    down = -sp * u + cp * sr * v + cp * cr * w
+    return north, east, down
+
+
 def stern_split(stern_rad: float, roll_diff_rad: float) -> tuple[float, float]:
     """Port and starboard stern-plane angles (rad) from a common stern and a differential roll command."""
     return stern_rad - roll_diff_rad, stern_rad + roll_diff_rad

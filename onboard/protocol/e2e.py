@@ -68,11 +68,25 @@ class CounterCheck:
 
 @dataclass
 class TxCounters:
-    """Sender-side alive counters, one per message id, starting at 0 and wrapping at 16."""
+    """Sender-side alive counters, one per message id, starting at 0 and wrapping at 16.
+
+    A value belongs to a frame that was actually produced: :meth:`peek` the value, build the frame, then
+    :meth:`advance`. A frame that could not be built (an encode error) must not use one up, or the receiver
+    sees a jump (``jumping_counter``) in the next good frame.
+    """
 
     next_by_id: dict[int, int] = field(default_factory=dict)
 
+    def peek(self, frame_id: int) -> int:
+        """The counter the next frame of ``frame_id`` carries (not used up)."""
+        return self.next_by_id.get(frame_id, 0)
+
+    def advance(self, frame_id: int) -> None:
+        """Use up the current value of ``frame_id`` (its frame was produced)."""
+        self.next_by_id[frame_id] = (self.peek(frame_id) + 1) % COUNTER_MODULO
+
     def next(self, frame_id: int) -> int:
-        value = self.next_by_id.get(frame_id, 0)
-        self.next_by_id[frame_id] = (value + 1) % COUNTER_MODULO
+        """:meth:`peek` and :meth:`advance` at once, for a frame that cannot fail any more."""
+        value = self.peek(frame_id)
+        self.advance(frame_id)
         return value

@@ -39,10 +39,15 @@ class BusPort:
         self.sent = 0
 
     def send(self, msg: BusMessage) -> None:
-        """Encode (E2E counter + CRC) and send one message. Raises EncodeError for NaN / out of range."""
-        frame_id, data = self.sender.encode(msg)
+        """Encode (E2E counter + CRC) and send one message.
+
+        Raises :class:`EncodeError` for NaN / out of range, and python-can's error if the bus refuses the
+        frame; in both cases no alive-counter value is used up (the next frame continues the sequence).
+        """
+        frame_id, data = self.sender.encode(msg, commit=False)
         frame = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
         self.bus.send(frame)
+        self.sender.commit(frame_id)
         self.sent += 1
         if self.recorder is not None:
             self.recorder.on_message_received(frame)

@@ -1,41 +1,12 @@
-"""MAVLink 2 adapter of the vehicle: endpoint, mission service, parameters, signing.
+"""MAVLink 2 adapter of the vehicle: a carrier, never a judge.
 
-The loop uses :class:`VehicleLink` with :class:`VehicleSnapshot` in and :data:`VehicleEvent` out; no
-pymavlink type leaves this package.
+The loop uses :class:`VehicleLink` through the per-tick exchange (:mod:`onboard.adapters.mavlink.bridge`):
+:class:`Request` objects in (each judged by ``Autopilot.handle`` and answered), notes and a
+:class:`VehicleSnapshot` out; no pymavlink type leaves this package.
 """
 
-from onboard.adapters.mavlink.api import (
-    Abort,
-    Arm,
-    Disarm,
-    GcsLinkLost,
-    GcsLinkRegained,
-    Hold,
-    MissionReplaced,
-    ParamChanged,
-    Resume,
-    SetCurrent,
-    StartMission,
-    VehicleEvent,
-    VehicleSnapshot,
-)
+from onboard.adapters.mavlink.api import Request, VehicleSnapshot
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
 
-__all__ = [
-    "Abort",
-    "Arm",
-    "Disarm",
-    "GcsLinkLost",
-    "GcsLinkRegained",
-    "Hold",
-    "MavlinkConfig",
-    "MissionReplaced",
-    "ParamChanged",
-    "Resume",
-    "SetCurrent",
-    "StartMission",
-    "VehicleEvent",
-    "VehicleLink",
-    "VehicleSnapshot",
-]
+__all__ = ["MavlinkConfig", "Request", "VehicleLink", "VehicleSnapshot"]

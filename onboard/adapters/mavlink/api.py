@@ -1,22 +1,32 @@
-"""The thread-safe seam between the control loop and the MAVLink endpoint: snapshot in, events out.
+"""The thread-safe seam between the control loop and the MAVLink link: requests in, verdicts, notes and a
+snapshot out.
 
-No pymavlink types appear here: the loop imports this module only. The loop calls ``VehicleLink.publish``
-(:mod:`onboard.adapters.mavlink.endpoint`) with a :class:`VehicleSnapshot` once per tick (cheap: it stores a
-reference) and ``VehicleLink.take_events`` once per tick to receive the :class:`VehicleEvent` objects that the
-ground station caused.
+No pymavlink types appear here: the loop imports this module only. Per tick the loop (through
+:mod:`onboard.adapters.mavlink.bridge`) calls ``VehicleLink.take_requests()`` and answers each
+:class:`Request` with the core's verdict (``VehicleLink.answer``), then ``VehicleLink.notify(notes)`` and
+``VehicleLink.publish(snapshot)`` with a :class:`VehicleSnapshot`. The link never judges a command itself
+(see ``onboard/core/DESIGN.md``).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
 
-from onboard.core.mission.model import Mission
+from onboard.core.commands import Command
+from onboard.core.mission.state import MissionState
 
-MissionStateName = Literal["IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE"]
-MISSION_STATES: tuple[MissionStateName, ...] = ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")
+# The one vocabulary of states; the index of a state in this tuple is HEARTBEAT custom_mode byte 0.
+MISSION_STATES: tuple[str, ...] = tuple(s.name for s in MissionState)
 NAN = math.nan
+
+
+@dataclass(frozen=True)
+class Request:
+    """One command for the core, taken once by the loop and answered exactly once (``VehicleLink.answer``)."""
+
+    id: int
+    command: Command
 
 
 @dataclass(frozen=True)
@@ -24,12 +34,18 @@ class VehicleSnapshot:
     """What the loop knows at the end of one tick (SI units, radians, NED world frame, FRD body frame).
 
     ``t_s`` is the loop's time of the sample (monotonic or simulated; MAVLink timers never use it).
-    Unknown values are NaN. ``goals_reached`` counts goals reached since the mission (re)started; the
-    endpoint sends MISSION_ITEM_REACHED whenever it increases.
+    Unknown values are NaN. ``goals_reached`` counts goals reached since the mission (re)started; the link
+    sends MISSION_ITEM_REACHED whenever it increases. ``armed`` is ``Autopilot.actuators_live`` (HEARTBEAT
+    SAFETY_ARMED is this bit and nothing else); ``ready`` / ``ready_reason`` say whether START would be
+    accepted as far as the vehicle's own checks go; ``reason`` says why the last transition happened.
     """
 
     t_s: float = 0.0
-    state: MissionStateName = "IDLE"
+    state: MissionState = MissionState.IDLE
+    armed: bool = False
+    ready: bool = False
+    ready_reason: str = ""
+    reason: str = ""
     current_goal: int = 0
     goals_reached: int = 0
     x_m: float = NAN
@@ -59,89 +75,3 @@ class VehicleSnapshot:
     failsafe: str | None = None
     overruns: int = 0
     loop_load: float = NAN  # fraction of the tick period used by the last tick (0..1+)
-
-
-@dataclass(frozen=True)
-class MissionReplaced:
-    """A complete, validated mission (goals and fence obstacles) replaced the previous one."""
-
-    mission: Mission
-
-
-@dataclass(frozen=True)
-class Arm:
-    """Arm (accepted only in IDLE or COMPLETE)."""
-
-
-@dataclass(frozen=True)
-class Disarm:
-    """Disarm (accepted in ARMED, COMPLETE, ABORT; in RUNNING/HOLD only when forced)."""
-
-    forced: bool = False
-
-
-@dataclass(frozen=True)
-class StartMission:
-    """Start (or restart) the mission at ``first_index`` (None = the current goal)."""
-
-    first_index: int | None = None
-
-
-@dataclass(frozen=True)
-class Abort:
-    """Abort: propeller off, fins to surface. Always accepted."""
-
-    reason: str = "operator"
-
-
-@dataclass(frozen=True)
-class Hold:
-    """Pause a running mission (keep station as the vehicle can)."""
-
-
-@dataclass(frozen=True)
-class Resume:
-    """Continue a held mission."""
-
-
-@dataclass(frozen=True)
-class SetCurrent:
-    """Make goal ``index`` the current goal; while RUNNING the loop re-plans to it."""
-
-    index: int
-
-
-@dataclass(frozen=True)
-class ParamChanged:
-    """A parameter has a new value (also emitted at start for each persisted value: each one set away from
-    its default)."""
-
-    name: str
-    value: float
-
-
-@dataclass(frozen=True)
-class GcsLinkLost:
-    """No ground-station heartbeat for ``gcs_timeout_s``; ``action`` is the configured reaction."""
-
-    action: Literal["continue", "hold", "surface"]
-
-
-@dataclass(frozen=True)
-class GcsLinkRegained:
-    """A ground-station heartbeat arrived again after a loss."""
-
-
-VehicleEvent = (
-    MissionReplaced
-    | Arm
-    | Disarm
-    | StartMission
-    | Abort
-    | Hold
-    | Resume
-    | SetCurrent
-    | ParamChanged
-    | GcsLinkLost
-    | GcsLinkRegained
-)

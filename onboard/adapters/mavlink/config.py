@@ -43,7 +43,10 @@ def default_state_dir() -> Path:
 
 @dataclass(frozen=True)
 class MavlinkConfig:
-    """MAVLink endpoint settings. Rates in Hz (0 = off), times in s, distances in m, angles in deg."""
+    """MAVLink endpoint settings. Rates in Hz (0 = off), times in s, angles in deg.
+
+    The mission limits (operating area, depth, counts) are not here: the mission validator owns them.
+    """
 
     enabled: bool = True
     endpoints: tuple[str, ...] = ("udpout:127.0.0.1:14550",)
@@ -59,15 +62,13 @@ class MavlinkConfig:
     home_rate_hz: float = 0.2  # HOME_POSITION and GPS_GLOBAL_ORIGIN
     gcs_timeout_s: float = 5.0
     gcs_loss_action: Literal["continue", "hold", "surface"] = "continue"
-    area_half_m: float = 500.0  # operating area: a square of +-area_half_m around the origin
-    max_depth_m: float = 100.0
-    max_goals: int = 1000
-    max_fence_items: int = 64
     origin_lat_deg: float = 35.1
     origin_lon_deg: float = 129.04
     origin_alt_m: float = 0.0  # AMSL altitude of the local origin (the sea surface)
     item_timeout_s: float = 0.25  # re-request a missing mission item after this
     upload_timeout_s: float = 5.0  # give up an upload after this long without progress
+    validate_timeout_s: float = 3.0  # a mission check (worker thread) that takes longer refuses the upload
+    command_timeout_s: float = 1.0  # a command the loop has not taken by then: TEMPORARILY_REJECTED
     state_dir: str = ""  # empty = default_state_dir()
     signing_key_file: str = ""  # empty = signing off; 32 raw bytes or 64 hex characters
     signing_link_id: int = 0
@@ -94,17 +95,6 @@ class MavlinkConfig:
         require(
             0.5 <= self.gcs_timeout_s <= 3600.0, f"gcs_timeout_s must be 0.5..3600, got {self.gcs_timeout_s}"
         )
-        require(
-            0.0 < self.area_half_m <= 100_000.0, f"area_half_m must be in (0, 100 km], got {self.area_half_m}"
-        )
-        require(
-            0.0 < self.max_depth_m <= 11_000.0, f"max_depth_m must be in (0, 11000], got {self.max_depth_m}"
-        )
-        require(1 <= self.max_goals <= 65535, f"max_goals must be 1..65535, got {self.max_goals}")
-        require(
-            0 <= self.max_fence_items <= 65535,
-            f"max_fence_items must be 0..65535, got {self.max_fence_items}",
-        )
         require(-90.0 <= self.origin_lat_deg <= 90.0, f"origin_lat_deg out of range: {self.origin_lat_deg}")
         require(-180.0 <= self.origin_lon_deg <= 180.0, f"origin_lon_deg out of range: {self.origin_lon_deg}")
         require(math.isfinite(self.origin_alt_m), "origin_alt_m must be finite")
@@ -114,6 +104,14 @@ class MavlinkConfig:
         require(
             self.item_timeout_s < self.upload_timeout_s <= 600.0,
             f"upload_timeout_s must exceed item_timeout_s and be <= 600, got {self.upload_timeout_s}",
+        )
+        require(
+            0.1 <= self.validate_timeout_s <= 60.0,
+            f"validate_timeout_s must be 0.1..60, got {self.validate_timeout_s}",
+        )
+        require(
+            0.05 <= self.command_timeout_s <= 30.0,
+            f"command_timeout_s must be 0.05..30, got {self.command_timeout_s}",
         )
         require(
             0 <= self.signing_link_id <= 255, f"signing_link_id must be 0..255, got {self.signing_link_id}"

@@ -8,9 +8,15 @@ legacy MISSION_ITEM and answers a legacy MISSION_REQUEST with MISSION_ITEM_INT (
   progress the upload is cancelled (MISSION_ACK OPERATION_CANCELLED) and the stored plan is unchanged.
 - Out-of-sequence items are dropped and the expected item re-requested (not an error).
 - One uploader at a time: another sender gets MAV_MISSION_DENIED; every reply is addressed to the sender.
-- Each item is checked on its own; the first failing check ends the upload with its MAV_MISSION code and the
-  stored plan is unchanged. Only a complete, valid upload replaces the stored plan (atomically, through the
-  ``commit`` callback, which persists it before the ACK is sent).
+- Each item is checked on its own for its format only (command, frame, numbers NaN or finite, lat/lon
+  ranges); the first failing check ends the upload with its MAV_MISSION code and the stored plan is
+  unchanged. The limits (operating area, depth, counts, feasibility) are the mission validator's
+  (:func:`onboard.core.mission.validate.check_mission`), run by the mission service.
+- A complete upload (the last item, a MISSION_COUNT 0 or a MISSION_CLEAR_ALL) is not stored at once: the
+  transfer enters the *judging* state and :meth:`MissionServer.take_candidate` hands the new plan(s) to the
+  caller, who checks them and asks the core; :meth:`MissionServer.finish` ends the transfer with the result
+  (the final MISSION_ACK), and only MAV_MISSION_ACCEPTED replaces the stored plan. While judging, the
+  re-sent final item is ignored (it is answered by the final ACK) and any other upload is DENIED.
 - A re-sent last item after the final ACK is answered with the same ACK again, without side effects.
 - Download is stateless: MISSION_REQUEST_LIST -> MISSION_COUNT; each MISSION_REQUEST_INT / MISSION_REQUEST
   is answered with MISSION_ITEM_INT (or MISSION_ACK INVALID_SEQUENCE).
@@ -24,8 +30,8 @@ degrees, NaN = the planner's choice.
 Home item (ArduPilot's convention, as MAVProxy ``wp load`` and Mission Planner send a QGC WPL 110 file): a
 MISSION-type item at **seq 0** in an absolute-altitude global frame (``MAV_FRAME_GLOBAL`` or
 ``MAV_FRAME_GLOBAL_INT``) with ``MAV_CMD_NAV_WAYPOINT`` is the home placeholder, see :func:`is_home_item`.
-It is not flown, so it is not checked against the operating area or the depth range (MAVProxy sends lat/lon
-0/0); only validity is checked (lat within +-90 deg -> else INVALID_PARAM5_X, lon within +-180 deg -> else
+It is not flown, so it is not a goal and never reaches the validator (MAVProxy sends lat/lon 0/0); only
+validity is checked (lat within +-90 deg -> else INVALID_PARAM5_X, lon within +-180 deg -> else
 INVALID_PARAM6_Y, param1..4 NaN or finite -> else INVALID_PARAMn, altitude finite -> else INVALID_PARAM7).
 It is stored as sent (download returns it unchanged, persistence keeps it) but is not a goal: the goals are
 the items after it. Every other item, including a seq-0 item in a relative-altitude or local frame, is a
@@ -38,7 +44,6 @@ never sends a home item.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import astuple, dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -67,7 +72,6 @@ _LEGACY_FRAME_TO_INT = {
 }
 
 Sender = tuple[int, int]
-CommitFn = Callable[[int, tuple["MissionItem", ...]], None]
 
 
 @dataclass(frozen=True)
@@ -115,21 +119,16 @@ class MissionItem:
 
 @dataclass(frozen=True)
 class MissionLimits:
-    """What the vehicle accepts: operating area (m), depth (m), capacities and the local origin."""
+    """The protocol's settings: the local origin of the global frames and the transfer timers.
 
-    area_half_m: float = 500.0
-    max_depth_m: float = 100.0
-    max_goals: int = 1000
-    max_fence_items: int = 64
+    No positional limits: the operating area, depth and counts belong to the mission validator.
+    """
+
     origin_lat_deg: float = 35.1
     origin_lon_deg: float = 129.04
     origin_alt_m: float = 0.0
     item_timeout_s: float = 0.25
     upload_timeout_s: float = 5.0
-
-
-class PlanRefused(Exception):
-    """Raised by a commit callback that refuses a complete, valid plan now (answered MAV_MISSION_ERROR)."""
 
 
 def _is_nan_or_finite(v: float) -> bool:
@@ -211,8 +210,10 @@ def local_to_global(x_m: float, y_m: float, limits: MissionLimits) -> tuple[floa
 
 
 def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq: int | None = None) -> int:
-    """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing check on one item.
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing format check on one item.
 
+    Format only: the command, the frame, every number NaN or finite, lat/lon within range in the global
+    frames. Whether the vehicle can fly it (area, depth, yaw, radius, counts, plan) is the validator's.
     With ``seq`` given, a home item at seq 0 (:func:`is_home_item`) gets :func:`check_home_item` instead.
     """
     if seq is not None and is_home_item(item, seq, mission_type):
@@ -227,32 +228,24 @@ def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq:
         return mavlink.MAV_MISSION_UNSUPPORTED
     if item.frame not in SUPPORTED_FRAMES:
         return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
-    if mission_type == TYPE_MISSION:
-        # param1 hold time (s), param2 acceptance radius (m): NaN or finite >= 0; param3 pass radius
-        if not (math.isnan(item.param1) or (math.isfinite(item.param1) and item.param1 >= 0.0)):
-            return mavlink.MAV_MISSION_INVALID_PARAM1
-        if not (math.isnan(item.param2) or (math.isfinite(item.param2) and item.param2 >= 0.0)):
-            return mavlink.MAV_MISSION_INVALID_PARAM2
-        if not _is_nan_or_finite(item.param3):
-            return mavlink.MAV_MISSION_INVALID_PARAM3
-        if not (math.isnan(item.param4) or -360.0 <= item.param4 <= 360.0):
-            return mavlink.MAV_MISSION_INVALID_PARAM4
-    else:
-        radius = item.param1
-        if not (math.isfinite(radius) and 0.0 < radius <= 2.0 * limits.area_half_m):
-            return mavlink.MAV_MISSION_INVALID_PARAM1
+    for value, code in (
+        (item.param1, mavlink.MAV_MISSION_INVALID_PARAM1),
+        (item.param2, mavlink.MAV_MISSION_INVALID_PARAM2),
+        (item.param3, mavlink.MAV_MISSION_INVALID_PARAM3),
+        (item.param4, mavlink.MAV_MISSION_INVALID_PARAM4),
+        (item.z, mavlink.MAV_MISSION_INVALID_PARAM7),
+    ):
+        if not _is_nan_or_finite(value):
+            return code
     if item.frame != FRAME_LOCAL:
         if abs(item.x) > 90 * GLOBAL_SCALE:
             return mavlink.MAV_MISSION_INVALID_PARAM5_X
         if abs(item.y) > 180 * GLOBAL_SCALE:
             return mavlink.MAV_MISSION_INVALID_PARAM6_Y
-    x_m, y_m, depth_m = item_position(item, limits)
-    if not abs(x_m) <= limits.area_half_m:
+    if not (-INT32_MAX - 1 <= item.x <= INT32_MAX):
         return mavlink.MAV_MISSION_INVALID_PARAM5_X
-    if not abs(y_m) <= limits.area_half_m:
+    if not (-INT32_MAX - 1 <= item.y <= INT32_MAX):
         return mavlink.MAV_MISSION_INVALID_PARAM6_Y
-    if mission_type == TYPE_MISSION and not (0.0 <= depth_m <= limits.max_depth_m):
-        return mavlink.MAV_MISSION_INVALID_PARAM7
     return mavlink.MAV_MISSION_ACCEPTED
 
 
@@ -322,8 +315,9 @@ def item_from_message(msg: mavlink.MAVLink_message) -> MissionItem | None:
         fx, fy = float(msg.x) * scale, float(msg.y) * scale
         if not (math.isfinite(fx) and math.isfinite(fy)):
             return None
-        x = max(-INT32_MAX, min(INT32_MAX, round(fx)))
-        y = max(-INT32_MAX, min(INT32_MAX, round(fy)))
+        if not (abs(fx) <= INT32_MAX and abs(fy) <= INT32_MAX):
+            return None  # not representable in MISSION_ITEM_INT
+        x, y = round(fx), round(fy)
     return MissionItem(
         frame=frame,
         command=int(msg.command),
@@ -362,14 +356,33 @@ class MissionStats:
     acks_resent: int = 0
 
 
+@dataclass(frozen=True)
+class Candidate:
+    """A complete transfer waiting for its judgement: the new plan of each type it changes.
+
+    ``mission_type`` is the type the final MISSION_ACK carries (MAV_MISSION_TYPE_ALL for a clear of both);
+    ``plans`` holds the new items of every type it replaces (both for a clear of ALL).
+    """
+
+    sender: Sender
+    mission_type: int
+    plans: dict[int, tuple[MissionItem, ...]]
+
+
+@dataclass
+class _Judging:
+    candidate: Candidate
+    final: tuple[int, MissionItem] | None  # (count, last item) of an item upload
+    taken: bool = False
+
+
 class MissionServer:
     """Vehicle side of the mission protocol for the MISSION and FENCE plan types.
 
     ``handle(msg, sender, now_s)`` and ``poll(now_s)`` return the messages to send (already addressed);
-    ``now_s`` is a monotonic wall-clock time. ``commit(mission_type, items)`` is called with a complete
-    valid plan before its ACK; if it raises (a persistence error, or :class:`PlanRefused`), the upload is
-    answered with MAV_MISSION_ERROR and the stored plan is unchanged. After a successful commit,
-    :meth:`take_changed` reports that the plan changed.
+    ``now_s`` is a monotonic wall-clock time. A complete transfer enters the judging state: the caller takes
+    it with :meth:`take_candidate` and ends it with :meth:`finish` (which returns the final MISSION_ACK);
+    only an ACCEPTED finish replaces the stored plans. After it, :meth:`take_changed` reports the change.
     """
 
     def __init__(
@@ -377,15 +390,14 @@ class MissionServer:
         limits: MissionLimits,
         own: Sender = (1, 1),
         stored: dict[int, tuple[MissionItem, ...]] | None = None,
-        commit: CommitFn | None = None,
     ) -> None:
         self.limits = limits
         self.own = own
         self._plans: dict[int, tuple[MissionItem, ...]] = {TYPE_MISSION: (), TYPE_FENCE: ()}
         if stored:
             self._plans.update({k: v for k, v in stored.items() if k in self._plans})
-        self._commit = commit
         self._upload: _Upload | None = None
+        self._judging: _Judging | None = None
         self._last_done: tuple[Sender, int, int, MissionItem] | None = None
         self._changed = False
         self.stats = MissionStats()
@@ -397,11 +409,21 @@ class MissionServer:
 
     @property
     def upload_in_progress(self) -> bool:
-        return self._upload is not None
+        """True while items are transferred or a complete transfer is being judged."""
+        return self._upload is not None or self._judging is not None
+
+    @property
+    def judging(self) -> bool:
+        return self._judging is not None
 
     def mission(self) -> Mission:
         """The stored mission and fence as one :class:`Mission`."""
         return mission_from_items(self._plans[TYPE_MISSION], self._plans[TYPE_FENCE], self.limits)
+
+    def candidate_mission(self, candidate: Candidate) -> Mission:
+        """The mission ``candidate`` would make: its new plan(s) plus the stored plan of the other type."""
+        plans = {**self._plans, **candidate.plans}
+        return mission_from_items(plans[TYPE_MISSION], plans[TYPE_FENCE], self.limits)
 
     def home_offset(self) -> int:
         """1 if the stored MISSION plan starts with a home item (MAVLink seq = goal index + 1), else 0."""
@@ -417,9 +439,47 @@ class MissionServer:
         return changed
 
     def replace(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
-        """Replace a plan outside the protocol (e.g. ``--mission`` at start); no commit callback."""
+        """Replace a plan outside the protocol (e.g. ``--mission`` at start)."""
         self._plans[mission_type] = items
         self._changed = True
+
+    # ---- judging -------------------------------------------------------------------------------
+    def take_candidate(self) -> Candidate | None:
+        """The complete transfer to judge, once (None when there is none or it was already taken)."""
+        j = self._judging
+        if j is None or j.taken:
+            return None
+        j.taken = True
+        return j.candidate
+
+    def finish(self, result: int) -> list[mavlink.MAVLink_message]:
+        """End the transfer being judged with ``result`` (a MAV_MISSION code); returns the final ACK.
+
+        MAV_MISSION_ACCEPTED stores the candidate's plans; any other result leaves them as they were.
+        """
+        j = self._judging
+        if j is None:
+            return []
+        self._judging = None
+        c = j.candidate
+        if result == mavlink.MAV_MISSION_ACCEPTED:
+            self._plans.update(c.plans)
+            self._changed = True
+            self.stats.uploads_accepted += 1
+            if j.final is not None:
+                self._last_done = (c.sender, c.mission_type, j.final[0], j.final[1])
+        else:
+            self.stats.uploads_rejected += 1
+        return [self._ack(c.sender, result, c.mission_type)]
+
+    def _judge(
+        self, sender: Sender, mission_type: int, plans: dict[int, tuple[MissionItem, ...]],
+        final: tuple[int, MissionItem] | None = None,
+    ) -> list[mavlink.MAVLink_message]:  # fmt: skip
+        self._upload = None
+        self._last_done = None
+        self._judging = _Judging(Candidate(sender, mission_type, plans), final)
+        return []  # the final ACK comes from finish()
 
     # ---- protocol ------------------------------------------------------------------------------
     def _for_us(self, msg: mavlink.MAVLink_message) -> bool:
@@ -457,14 +517,19 @@ class MissionServer:
             return self._on_clear(msg, sender)
         return []  # MISSION_ACK from a downloader: nothing to do (download is stateless)
 
+    def _busy(self, sender: Sender, mission_type: int) -> list[mavlink.MAVLink_message]:
+        self.stats.denied += 1
+        return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mission_type)]
+
     def _on_count(
         self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float
     ) -> list[mavlink.MAVLink_message]:
         mt, count = int(msg.mission_type), int(msg.count)
+        if self._judging is not None:
+            return self._busy(sender, mt)
         up = self._upload
         if up is not None and up.sender != sender:
-            self.stats.denied += 1
-            return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+            return self._busy(sender, mt)
         if mt not in (TYPE_MISSION, TYPE_FENCE):
             self.stats.uploads_rejected += 1
             return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
@@ -474,31 +539,24 @@ class MissionServer:
             self.stats.rerequests += 1
             return [self._request(up)]
         self._upload = None  # a new MISSION_COUNT from the uploader restarts its upload
-        capacity = self.limits.max_goals if mt == TYPE_MISSION else self.limits.max_fence_items
-        if count > capacity:
-            self.stats.uploads_rejected += 1
-            return [self._ack(sender, mavlink.MAV_MISSION_NO_SPACE, mt)]
         if count == 0:  # an empty upload clears the plan
-            return [self._ack(sender, self._store(mt, ()), mt)]
+            return self._judge(sender, mt, {mt: ()})
         self._upload = _Upload(sender, mt, count, last_rx_s=now_s, last_req_s=now_s)
         return [self._request(self._upload)]
-
-    def _store(self, mission_type: int, items: tuple[MissionItem, ...]) -> int:
-        try:
-            if self._commit is not None:
-                self._commit(mission_type, items)
-        except Exception:  # persistence failed or the plan was refused: keep the old plan, tell the GCS
-            self.stats.uploads_rejected += 1
-            return int(mavlink.MAV_MISSION_ERROR)
-        self._plans[mission_type] = items
-        self._changed = True
-        self.stats.uploads_accepted += 1
-        return int(mavlink.MAV_MISSION_ACCEPTED)
 
     def _on_item(
         self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float
     ) -> list[mavlink.MAVLink_message]:
         mt, seq = int(msg.mission_type), int(msg.seq)
+        j = self._judging
+        if j is not None:
+            c = j.candidate
+            if c.sender == sender and c.mission_type == mt and j.final is not None and seq == j.final[0] - 1:
+                return []  # the final item again: its ACK comes when the judgement is done
+            if c.sender != sender:
+                return self._busy(sender, mt)
+            self.stats.stray_items += 1
+            return []
         up = self._upload
         if up is None:
             done = self._last_done
@@ -516,8 +574,7 @@ class MissionServer:
             self.stats.stray_items += 1
             return []
         if up.sender != sender:
-            self.stats.denied += 1
-            return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+            return self._busy(sender, mt)
         if mt != up.mission_type or seq != len(up.items):
             if seq >= up.count and mt == up.mission_type:
                 self._upload = None
@@ -539,11 +596,7 @@ class MissionServer:
         up.last_req_s = now_s
         if len(up.items) < up.count:
             return [self._request(up)]
-        self._upload = None
-        result = self._store(mt, tuple(up.items))
-        if result == mavlink.MAV_MISSION_ACCEPTED:
-            self._last_done = (sender, mt, up.count, item)
-        return [self._ack(sender, result, mt)]
+        return self._judge(sender, mt, {mt: tuple(up.items)}, final=(up.count, item))
 
     def _on_download_request(
         self, msg: mavlink.MAVLink_message, sender: Sender
@@ -578,22 +631,20 @@ class MissionServer:
         types = (TYPE_MISSION, TYPE_FENCE) if mt == TYPE_ALL else (mt,)
         if any(t not in (TYPE_MISSION, TYPE_FENCE) for t in types):
             return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
+        if self._judging is not None:
+            return self._busy(sender, mt)
         up = self._upload
         if up is not None and up.mission_type in types:
             if up.sender != sender:
-                self.stats.denied += 1
-                return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mt)]
+                return self._busy(sender, mt)
             self._upload = None  # the uploader itself clears: its upload ends
-        result = int(mavlink.MAV_MISSION_ACCEPTED)
-        for t in types:
-            if self._plans[t]:
-                result = self._store(t, ())
-                if result != mavlink.MAV_MISSION_ACCEPTED:
-                    break
-        return [self._ack(sender, result, mt)]
+        if not any(self._plans[t] for t in types):
+            self.stats.uploads_accepted += 1
+            return [self._ack(sender, mavlink.MAV_MISSION_ACCEPTED, mt)]  # nothing to clear
+        return self._judge(sender, mt, {t: () for t in types})
 
     def poll(self, now_s: float) -> list[mavlink.MAVLink_message]:
-        """Timers: re-request the missing item, or cancel a stalled upload."""
+        """Timers: re-request the missing item, or cancel a stalled upload (none while judging)."""
         up = self._upload
         if up is None:
             return []

@@ -1,119 +1,186 @@
-"""Parameters exposed through the MAVLink parameter protocol: declared with unit, range and default.
+"""The MAVLink parameter micro-service: PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET -> PARAM_VALUE.
 
-The table below is the default set (PD gains of paper eqs. 8 to 10, actuator limits, planner weights).
-The loop receives every value as a :class:`~onboard.adapters.mavlink.api.ParamChanged` event (once at
-start, then on
-each accepted PARAM_SET) and maps names to its own configuration. A caller may pass its own table to
-:class:`~onboard.adapters.mavlink.endpoint.VehicleLink`. Names are at most 16 characters (MAVLink param_id).
+The table is :func:`onboard.core.params.param_table` (one table, ``onboard/core/DESIGN.md``); the service
+holds only the values in force as the core last reported them. A PARAM_SET is a
+:class:`~onboard.core.commands.SetParam` request judged by the core; its verdict carries the value in force:
+
+- accepted: the ground-station edit is persisted through the store (only the edits whose value differs
+  from the spec's default in float32, :func:`onboard.core.params.is_default`), then PARAM_VALUE;
+- refused (or not taken by the loop in time): PARAM_VALUE with the value in force and a STATUSTEXT with the
+  reason;
+- an unknown name has no PARAM_VALUE to answer with: a STATUSTEXT "unknown parameter NAME".
+
+At start the service loads the persisted edits; unless the caller gives the values in force
+(``values``, when the app has applied the edits itself), each persisted edit is handed to the core as a
+``SetParam`` request (not timed: it waits for the loop).
 """
 
 from __future__ import annotations
 
+import functools
+import logging
 import math
-import threading
-from dataclasses import dataclass
+from collections.abc import Mapping
+from typing import Protocol
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.adapters.mavlink.commands import RequestQueue
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.transport import Sender, Transport, addressed_to
+from onboard.core import commands as core
+from onboard.core.commands import Severity, Verdict
+from onboard.core.params import ParamSpec, float32
+
+log = logging.getLogger(__name__)
+
+__all__ = ["ParamService", "ParamSpec", "SpecLike"]
 
 
-@dataclass(frozen=True)
-class ParamSpec:
-    """One parameter: name (<= 16 chars), default, inclusive range, unit and a one-line description."""
+class SpecLike(Protocol):
+    """What the service reads of a parameter spec (:class:`onboard.core.params.ParamSpec`)."""
 
-    name: str
-    default: float
-    min: float
-    max: float
-    unit: str
-    description: str
-
-    def __post_init__(self) -> None:
-        if not 1 <= len(self.name) <= 16:
-            raise ValueError(f"parameter name {self.name!r} must have 1..16 characters")
-        if not self.min <= self.default <= self.max:
-            raise ValueError(
-                f"parameter {self.name}: default {self.default} outside [{self.min}, {self.max}]"
-            )
+    @property
+    def name(self) -> str: ...
+    @property
+    def default(self) -> float: ...
 
 
-def _p(name: str, default: float, lo: float, hi: float, unit: str, text: str) -> ParamSpec:
-    return ParamSpec(name, default, lo, hi, unit, text)
+def param_name(raw: object) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("ascii", "replace")
+    return str(raw).split("\x00", 1)[0]
 
 
-DEFAULT_PARAMS: tuple[ParamSpec, ...] = (
-    # propeller (eq. 8): from e_x, e_y, e_z
-    _p("PD_RPS_KP_X", 2.0, 0.0, 100.0, "rps/m", "propeller P gain on along-track error"),
-    _p("PD_RPS_KD_X", 0.5, 0.0, 100.0, "rps.s/m", "propeller D gain on along-track error"),
-    _p("PD_RPS_KP_Y", 0.0, 0.0, 100.0, "rps/m", "propeller P gain on cross-track error"),
-    _p("PD_RPS_KD_Y", 0.0, 0.0, 100.0, "rps.s/m", "propeller D gain on cross-track error"),
-    _p("PD_RPS_KP_Z", 0.0, 0.0, 100.0, "rps/m", "propeller P gain on depth error"),
-    _p("PD_RPS_KD_Z", 0.0, 0.0, 100.0, "rps.s/m", "propeller D gain on depth error"),
-    # rudder (eq. 9): from e_x, e_y, e_psi
-    _p("PD_RUD_KP_X", 0.0, -10.0, 10.0, "rad/m", "rudder P gain on along-track error"),
-    _p("PD_RUD_KD_X", 0.0, -10.0, 10.0, "rad.s/m", "rudder D gain on along-track error"),
-    _p("PD_RUD_KP_Y", 0.1, -10.0, 10.0, "rad/m", "rudder P gain on cross-track error"),
-    _p("PD_RUD_KD_Y", 0.05, -10.0, 10.0, "rad.s/m", "rudder D gain on cross-track error"),
-    _p("PD_RUD_KP_PSI", 1.0, -20.0, 20.0, "rad/rad", "rudder P gain on yaw error"),
-    _p("PD_RUD_KD_PSI", 0.3, -20.0, 20.0, "rad.s/rad", "rudder D gain on yaw error"),
-    # stern planes (eq. 10): from e_z, e_theta
-    _p("PD_STN_KP_Z", 0.2, -10.0, 10.0, "rad/m", "stern P gain on depth error"),
-    _p("PD_STN_KD_Z", 0.1, -10.0, 10.0, "rad.s/m", "stern D gain on depth error"),
-    _p("PD_STN_KP_THT", 1.0, -20.0, 20.0, "rad/rad", "stern P gain on pitch error"),
-    _p("PD_STN_KD_THT", 0.3, -20.0, 20.0, "rad.s/rad", "stern D gain on pitch error"),
-    # limits
-    _p("LIM_RUDDER_DEG", 30.0, 1.0, 45.0, "deg", "rudder angle limit"),
-    _p("LIM_STERN_DEG", 30.0, 1.0, 45.0, "deg", "stern-plane angle limit"),
-    _p("LIM_RPS", 25.0, 0.0, 60.0, "rps", "propeller speed limit"),
-    _p("LIM_DEPTH_M", 50.0, 0.5, 100.0, "m", "depth failsafe limit"),
-    # planner weights and geometry
-    _p("PLN_W_D", 1.0, 0.0, 1000.0, "1/m", "planner weight on distance"),
-    _p("PLN_W_PSI", 0.0, 0.0, 1000.0, "1/rad", "planner weight on cumulative yaw change"),
-    _p("PLN_W_DR", 0.0, 0.0, 1000.0, "1/rad", "planner weight on cumulative rudder"),
-    _p("PLN_R_MIN_M", 5.0, 0.5, 100.0, "m", "minimum turning radius"),
-    _p("PLN_MARGIN_M", 2.0, 0.0, 50.0, "m", "obstacle safety margin"),
-)
+class ParamService:
+    """PARAM_* for the table ``specs`` (I/O thread, except :meth:`value` / :meth:`values`)."""
 
-
-class ParamTable:
-    """Thread-safe parameter values with range checks. ``set`` returns (accepted, value now in force)."""
-
-    def __init__(self, specs: tuple[ParamSpec, ...] = DEFAULT_PARAMS, values: dict[str, float] | None = None):
+    def __init__(
+        self,
+        config: MavlinkConfig,
+        transport: Transport,
+        requests: RequestQueue,
+        store: StateStore,
+        specs: tuple[SpecLike, ...],
+        values: Mapping[str, float] | None = None,
+    ) -> None:
         names = [s.name for s in specs]
         if len(set(names)) != len(names):
             raise ValueError("duplicate parameter names")
+        self.config = config
+        self.transport = transport
+        self.requests = requests
+        self.store = store
         self.specs = specs
         self._index = {s.name: i for i, s in enumerate(specs)}
-        self._values = {s.name: s.default for s in specs}
-        self._lock = threading.Lock()
-        for name, value in (values or {}).items():
-            spec = self.spec(name)
-            if spec is not None and math.isfinite(value) and spec.min <= value <= spec.max:
-                self._values[name] = value
+        self._values: dict[str, float] = {s.name: float(s.default) for s in specs}
+        persisted = store.load_params()
+        self._edits: dict[str, float] = {n: v for n, v in persisted.items() if n in self._index}
+        for name in sorted(set(persisted) - set(self._index)):
+            log.warning("persisted parameter %s is not in the table: ignored", name)
+        if values is not None:
+            self._values.update({n: float(v) for n, v in values.items() if n in self._index})
+        else:
+            for name, value in self._edits.items():
+                self.requests.submit(
+                    core.SetParam(name, value, source="persisted edit"),
+                    functools.partial(self._boot_answer, name),
+                    timed=False,
+                )
 
-    def spec(self, name: str) -> ParamSpec | None:
+    # ---- queries (any thread: values change only on the I/O thread, dict reads are atomic) --------
+    def value(self, name: str) -> float:
+        return self._values[name]
+
+    def values(self) -> dict[str, float]:
+        return dict(self._values)
+
+    def spec(self, name: str) -> SpecLike | None:
         i = self._index.get(name)
         return None if i is None else self.specs[i]
 
-    def index(self, name: str) -> int:
-        return self._index[name]
+    # ---- protocol --------------------------------------------------------------------------------
+    def _param_value(self, name: str) -> mavlink.MAVLink_message:
+        return mavlink.MAVLink_param_value_message(
+            name.encode("ascii"),
+            self._values[name],
+            mavlink.MAV_PARAM_TYPE_REAL32,
+            len(self.specs),
+            self._index[name],
+        )
 
-    def get(self, name: str) -> float:
-        with self._lock:
-            return self._values[name]
+    def handle(self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float) -> None:
+        if not addressed_to(msg, self.config.system_id, self.config.component_id):
+            return
+        kind = msg.get_type()
+        if kind == "PARAM_REQUEST_LIST":
+            for spec in self.specs:
+                self.transport.send(self._param_value(spec.name))
+        elif kind == "PARAM_REQUEST_READ":
+            if msg.param_index >= 0:
+                if msg.param_index < len(self.specs):
+                    self.transport.send(self._param_value(self.specs[msg.param_index].name))
+                return
+            name = param_name(msg.param_id)
+            if name in self._index:
+                self.transport.send(self._param_value(name))
+        elif kind == "PARAM_SET":
+            self._set(param_name(msg.param_id), float(msg.param_value), sender)
 
-    def values(self) -> dict[str, float]:
-        with self._lock:
-            return dict(self._values)
+    def _set(self, name: str, value: float, sender: Sender) -> None:
+        if name not in self._index:
+            self.transport.statustext(Severity.WARNING, f"unknown parameter {name}")
+            return
+        if not math.isfinite(value):
+            self._refused(name, core.denied(f"{name}: the value is not a number"))
+            return
+        key = ("param", name, float32(value))
+        if self.requests.pending(key):
+            return  # a resend: the first one's PARAM_VALUE answers it
+        self.requests.submit(
+            core.SetParam(name, value, source=f"MAVLink {sender[0]}/{sender[1]}"),
+            lambda v: self._answered(name, v),
+            key=key,
+        )
 
-    def changed(self) -> dict[str, float]:
-        """The values that differ from their declared defaults (what is persisted and announced)."""
-        with self._lock:
-            return {s.name: self._values[s.name] for s in self.specs if self._values[s.name] != s.default}
+    def _answered(self, name: str, verdict: Verdict) -> None:
+        if not verdict.accepted:
+            self._refused(name, verdict)
+            return
+        if math.isfinite(verdict.value):
+            self._values[name] = verdict.value
+        self._persist(name)
+        self.transport.send(self._param_value(name))
 
-    def check(self, name: str, value: float) -> bool:
-        """True if ``value`` is acceptable for parameter ``name``."""
-        spec = self.spec(name)
-        return spec is not None and math.isfinite(value) and spec.min <= value <= spec.max
+    def _refused(self, name: str, verdict: Verdict) -> None:
+        if math.isfinite(verdict.value):
+            self._values[name] = verdict.value
+        self.transport.statustext(Severity.WARNING, verdict.reason)
+        self.transport.send(self._param_value(name))  # the value in force
 
-    def set(self, name: str, value: float) -> None:
-        """Store a checked value (call :meth:`check` first)."""
-        with self._lock:
-            self._values[name] = value
+    def _persist(self, name: str) -> None:
+        spec = self.specs[self._index[name]]
+        value = self._values[name]
+        edits = dict(self._edits)
+        if float32(value) == float32(spec.default):
+            edits.pop(name, None)
+        else:
+            edits[name] = value
+        if edits == self._edits:
+            return
+        try:
+            self.store.save_params(edits)
+        except OSError as exc:
+            log.error("cannot persist parameters: %s", exc)
+            self.transport.statustext(Severity.ERROR, f"{name} set but not saved: {exc.strerror or exc}")
+            return
+        self._edits = edits
+
+    def _boot_answer(self, name: str, verdict: Verdict) -> None:
+        if math.isfinite(verdict.value):
+            self._values[name] = verdict.value
+        if verdict.accepted:
+            log.info("persisted parameter %s = %g applied", name, self._values[name])
+        else:
+            log.warning("persisted parameter %s not applied: %s", name, verdict.reason)

@@ -1,35 +1,90 @@
-"""Atomic JSON state files: write to a temporary file, fsync, rename, fsync the directory.
+"""The state directory: atomic JSON files that can never brick the vehicle.
 
-After :func:`write_json_atomic` returns, a kill -9 or power loss leaves either the old or the new file,
-never a partial one. The MAVLink endpoint calls it before it acknowledges a mission, a fence or a parameter.
+Files: ``mission.json`` and ``fence.json`` (the stored plans, MISSION_ITEM_INT encoding), ``params.json``
+(ground-station parameter edits) and ``progress.json`` (the goal the mission has reached, tied to that
+mission by :func:`mission_key`).
+
+Writing (:func:`write_json_atomic`): to a temporary file, fsync, rename, fsync the directory. After it
+returns, a kill -9 or power loss leaves either the old or the new file, never a partial one. The MAVLink
+endpoint calls it before it acknowledges a mission, a fence or a parameter.
+
+Reading: a file that is not valid JSON, has the wrong shape, or whose values fail the format checks
+(:class:`MissionItem` fields of the right JSON types;
+:func:`~onboard.adapters.mavlink.mission_protocol.check_item`: frame, command, numbers, lat/lon; the
+validator's configuration-free rules for the goal or obstacle each item stands for,
+:func:`~onboard.core.mission.validate.check_goal_values` / ``check_obstacle_values``: a null z, a fence
+radius <= 0; the operating-area, depth and count *limits* are not applied here: the runtime checks the
+whole mission with :func:`~onboard.core.mission.validate.check_mission` after conversion and may
+:meth:`StateStore.quarantine` a plan it refuses) is moved aside to
+``NAME.invalid-<UTC time>`` (kept for inspection), logged with one ERROR line and recorded:
+:meth:`StateStore.quarantined` returns one human line per file, which the adapter announces (STATUSTEXT)
+when a ground station connects. The load then returns "nothing stored" (None, {}), so the vehicle boots
+with no mission rather than not at all.
 """
 
 from __future__ import annotations
 
+import contextlib
+import datetime
+import hashlib
 import json
 import logging
+import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION, MissionItem
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.adapters.mavlink.mission_protocol import (
+    TYPE_FENCE,
+    TYPE_MISSION,
+    MissionItem,
+    MissionLimits,
+    check_item,
+    goal_from_item,
+    is_home_item,
+    obstacle_from_item,
+)
+from onboard.core.mission.validate import Problem, check_goal_values, check_obstacle_values
 
 log = logging.getLogger(__name__)
 
 FILE_NAMES = {TYPE_MISSION: "mission.json", TYPE_FENCE: "fence.json"}
 PARAMS_FILE = "params.json"
+PROGRESS_FILE = "progress.json"
 FORMAT_VERSION = 1
+#: MAVLink PARAM_* ids are at most 16 characters.
+MAX_PARAM_NAME = 16
+
+# check_item checks the format only (the limits belong to the whole-mission check); the origin is irrelevant.
+_FORMAT_LIMITS = MissionLimits()
+_INT_FIELDS = ("frame", "command", "x", "y", "autocontinue")
+_FLOAT_FIELDS = ("param1", "param2", "param3", "param4", "z")  # null = NaN
+
+
+class StateDirError(OSError):
+    """The state directory cannot be created or written; the message is one line for the operator."""
+
+
+class InvalidStateFile(ValueError):
+    """A state file whose content is unusable; the message says why (e.g. "item 3: frame 99 unsupported")."""
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
     """Write ``data`` as JSON to ``path`` atomically and durably."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with tmp.open("w", encoding="utf-8") as f:
-        json.dump(data, f, indent=1, allow_nan=False)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        with tmp.open("w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1, allow_nan=False)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     fd = os.open(path.parent, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -37,24 +92,196 @@ def write_json_atomic(path: Path, data: Any) -> None:
         os.close(fd)
 
 
-def read_json(path: Path) -> Any | None:
-    """The JSON content of ``path``, or None if it is missing or unreadable (logged)."""
-    try:
-        with path.open("r", encoding="utf-8") as f:
-            return json.load(f)
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError) as exc:
-        log.error("ignoring unreadable state file %s: %s", path, exc)
-        return None
+def mission_key(items: Sequence[MissionItem]) -> str:
+    """A stable hash (hex SHA-256) of a stored MISSION plan: progress is kept for exactly this plan."""
+    canonical = json.dumps([i.to_json() for i in items], sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode("utf-8")).hexdigest()
 
 
+# ---- format checks ---------------------------------------------------------------------------------
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _shape(data: Any, key: str, kind: type) -> Any:
+    if not isinstance(data, dict):
+        raise InvalidStateFile(f"expected a JSON object, got {type(data).__name__}")
+    if data.get("version") != FORMAT_VERSION:
+        raise InvalidStateFile(f"version {data.get('version')!r}, expected {FORMAT_VERSION}")
+    if not isinstance(data.get(key), kind):
+        raise InvalidStateFile(f"'{key}' must be a JSON {'array' if kind is list else 'object'}")
+    return data[key]
+
+
+def _null(v: float) -> str:
+    return "null" if math.isnan(v) else f"{v:g}"
+
+
+def describe_item_error(item: MissionItem, code: int, mission_type: int) -> str:
+    """A human phrase for the MAV_MISSION code of one item, e.g. "frame 99 unsupported"."""
+    params = (item.param1, item.param2, item.param3, item.param4)
+    if code == mavlink.MAV_MISSION_UNSUPPORTED_FRAME:
+        return f"frame {item.frame} unsupported"
+    if code == mavlink.MAV_MISSION_UNSUPPORTED:
+        return f"command {item.command} unsupported"
+    if code == mavlink.MAV_MISSION_INVALID_PARAM1 and mission_type == TYPE_FENCE:
+        return f"fence radius (param1) {_null(item.param1)} invalid"
+    if mavlink.MAV_MISSION_INVALID_PARAM1 <= code <= mavlink.MAV_MISSION_INVALID_PARAM4:
+        n = code - mavlink.MAV_MISSION_INVALID_PARAM1
+        return f"param{n + 1} {_null(params[n])} invalid"
+    if code == mavlink.MAV_MISSION_INVALID_PARAM5_X:
+        return f"x {item.x} invalid"
+    if code == mavlink.MAV_MISSION_INVALID_PARAM6_Y:
+        return f"y {item.y} invalid"
+    if code == mavlink.MAV_MISSION_INVALID_PARAM7:
+        return f"z {_null(item.z)} invalid"
+    entry = mavlink.enums["MAV_MISSION_RESULT"].get(code)
+    return f"refused ({entry.name if entry is not None else code})"
+
+
+def _item_from_json(d: Any) -> MissionItem:
+    if not isinstance(d, dict):
+        raise InvalidStateFile(f"expected an object, got {d!r}")
+    missing = [k for k in (*_INT_FIELDS, *_FLOAT_FIELDS) if k not in d]
+    if missing:
+        raise InvalidStateFile(f"missing {', '.join(missing)}")
+    for k in _INT_FIELDS:
+        if not _is_int(d[k]):
+            raise InvalidStateFile(f"{k} {d[k]!r} is not an integer")
+    for k in _FLOAT_FIELDS:
+        if d[k] is not None and not _is_number(d[k]):
+            raise InvalidStateFile(f"{k} {d[k]!r} is not a number or null")
+    return MissionItem.from_json(d)
+
+
+def _value_problems(item: MissionItem, mission_type: int, seq: int) -> list[Problem]:
+    """The validator's configuration-free rules for the goal or obstacle an item stands for (e.g. a null z,
+    a fence radius <= 0); a home item is not a goal."""
+    if mission_type == TYPE_FENCE:
+        return check_obstacle_values(seq, obstacle_from_item(item, _FORMAT_LIMITS))
+    if is_home_item(item, seq, mission_type):
+        return []
+    return check_goal_values(seq, goal_from_item(item, _FORMAT_LIMITS))
+
+
+def parse_plan(data: Any, mission_type: int) -> tuple[MissionItem, ...]:
+    """The items of a plan file's JSON content; raises :class:`InvalidStateFile` naming the first bad item."""
+    out = []
+    for seq, d in enumerate(_shape(data, "items", list)):
+        try:
+            item = _item_from_json(d)
+        except InvalidStateFile as exc:
+            raise InvalidStateFile(f"item {seq}: {exc}") from None
+        code = check_item(item, mission_type, _FORMAT_LIMITS, seq)
+        if code != mavlink.MAV_MISSION_ACCEPTED:
+            raise InvalidStateFile(f"item {seq}: {describe_item_error(item, code, mission_type)}")
+        problems = _value_problems(item, mission_type, seq)
+        if problems:
+            raise InvalidStateFile(f"item {seq}: {problems[0].reason}")
+        out.append(item)
+    return tuple(out)
+
+
+def parse_params(data: Any) -> dict[str, float]:
+    """The parameter values of a params file's JSON content; raises :class:`InvalidStateFile`."""
+    out = {}
+    for name, value in _shape(data, "params", dict).items():
+        if not 1 <= len(name) <= MAX_PARAM_NAME:
+            raise InvalidStateFile(f"parameter name {name!r} is not 1..{MAX_PARAM_NAME} characters")
+        if not _is_number(value) or not math.isfinite(value):
+            raise InvalidStateFile(f"parameter {name} = {value!r} is not a finite number")
+        out[name] = float(value)
+    return out
+
+
+def parse_progress(data: Any) -> tuple[str, int]:
+    """(mission key, goal index) of a progress file's JSON content; raises :class:`InvalidStateFile`."""
+    key = _shape(data, "mission_key", str)
+    index = data.get("goal_index")
+    if not _is_int(index) or index < 0:
+        raise InvalidStateFile(f"goal_index {index!r} is not an integer >= 0")
+    return key, index
+
+
+# ---- the store ---------------------------------------------------------------------------------
 class StateStore:
-    """The endpoint's state directory: mission.json, fence.json, params.json."""
+    """The endpoint's state directory: mission.json, fence.json, params.json, progress.json."""
 
-    def __init__(self, state_dir: Path) -> None:
-        self.dir = state_dir
+    def __init__(self, state_dir: Path | str) -> None:
+        self.dir = Path(state_dir)
+        self._quarantined: list[str] = []
 
+    # ---- start-up checks -------------------------------------------------------------------------
+    def check_writable(self) -> None:
+        """Create the directory if needed and prove it writable (a probe file, fsynced, removed).
+
+        Raises :class:`StateDirError` with one line, e.g. "state directory /x is not writable: Permission
+        denied".
+        """
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise StateDirError(f"state directory {self.dir} is not a directory") from None
+        except OSError as exc:
+            raise StateDirError(f"state directory {self.dir} cannot be created: {exc.strerror}") from None
+        if not self.dir.is_dir():
+            raise StateDirError(f"state directory {self.dir} is not a directory")
+        probe = self.dir / f".write-probe.{os.getpid()}"
+        try:
+            with probe.open("w", encoding="utf-8") as f:
+                f.write("probe")
+                f.flush()
+                os.fsync(f.fileno())
+            probe.unlink()
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                probe.unlink(missing_ok=True)
+            raise StateDirError(f"state directory {self.dir} is not writable: {exc.strerror}") from None
+
+    def quarantined(self) -> list[str]:
+        """One human line per state file found invalid and moved aside since this store was made."""
+        return list(self._quarantined)
+
+    def quarantine(self, name: str, why: str) -> str:
+        """Move the state file ``name`` aside to ``name.invalid-<UTC time>``, log and record it.
+
+        Public so that the runtime can set aside a plan that is well formed but fails the whole-mission
+        check. Returns the recorded line.
+        """
+        path = self.dir / name
+        stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+        target = path.with_name(f"{name}.invalid-{stamp}")
+        n = 1
+        while target.exists():
+            target = path.with_name(f"{name}.invalid-{stamp}-{n}")
+            n += 1
+        try:
+            os.replace(path, target)
+            line = f"{name} was invalid ({why}) and was moved to {target.name}"
+        except OSError as exc:
+            line = f"{name} was invalid ({why}) and is ignored (could not be moved aside: {exc.strerror})"
+        log.error("state directory %s: %s", self.dir, line)
+        self._quarantined.append(line)
+        return line
+
+    def _load(self, name: str) -> Any | None:
+        """The JSON content of a state file; None if it does not exist or was invalid JSON (quarantined)."""
+        path = self.dir / name
+        try:
+            with path.open("r", encoding="utf-8") as f:
+                return json.load(f, parse_constant=_refuse_constant)
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError) as exc:
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+            self.quarantine(name, f"not valid JSON: {why}" if isinstance(exc, ValueError) else why)
+            return None
+
+    # ---- plans -----------------------------------------------------------------------------------
     def save_plan(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
         write_json_atomic(
             self.dir / FILE_NAMES[mission_type],
@@ -62,20 +289,71 @@ class StateStore:
         )
 
     def load_plan(self, mission_type: int) -> tuple[MissionItem, ...] | None:
-        data = read_json(self.dir / FILE_NAMES[mission_type])
+        """The stored plan, or None (nothing stored, or the file was invalid and was set aside)."""
+        name = FILE_NAMES[mission_type]
+        data = self._load(name)
         if data is None:
             return None
         try:
-            return tuple(MissionItem.from_json(d) for d in data["items"])
-        except (KeyError, TypeError, ValueError) as exc:
-            log.error("ignoring malformed %s: %s", FILE_NAMES[mission_type], exc)
+            return parse_plan(data, mission_type)
+        except InvalidStateFile as exc:
+            self.quarantine(name, str(exc))
             return None
 
+    # ---- parameters ------------------------------------------------------------------------------
     def save_params(self, values: dict[str, float]) -> None:
         write_json_atomic(self.dir / PARAMS_FILE, {"version": FORMAT_VERSION, "params": values})
 
     def load_params(self) -> dict[str, float]:
-        data = read_json(self.dir / PARAMS_FILE)
-        if not isinstance(data, dict) or not isinstance(data.get("params"), dict):
+        """The persisted parameter values, or {} (nothing stored, or the file was invalid and set aside)."""
+        data = self._load(PARAMS_FILE)
+        if data is None:
             return {}
-        return {str(k): float(v) for k, v in data["params"].items() if isinstance(v, int | float)}
+        try:
+            return parse_params(data)
+        except InvalidStateFile as exc:
+            self.quarantine(PARAMS_FILE, str(exc))
+            return {}
+
+    # ---- mission progress ------------------------------------------------------------------------
+    def save_progress(self, goal_index: int, mission_key: str) -> None:
+        """Persist the active goal of the mission whose :func:`mission_key` is ``mission_key``."""
+        if not _is_int(goal_index) or goal_index < 0:
+            raise ValueError(f"goal_index must be an integer >= 0, got {goal_index!r}")
+        write_json_atomic(
+            self.dir / PROGRESS_FILE,
+            {"version": FORMAT_VERSION, "mission_key": mission_key, "goal_index": goal_index},
+        )
+
+    def load_progress(self, mission_key: str) -> int | None:
+        """The persisted goal index if it belongs to the mission ``mission_key``; else None.
+
+        Progress of another mission is never applied (logged, the file is left alone: it is not invalid).
+        """
+        data = self._load(PROGRESS_FILE)
+        if data is None:
+            return None
+        try:
+            key, index = parse_progress(data)
+        except InvalidStateFile as exc:
+            self.quarantine(PROGRESS_FILE, str(exc))
+            return None
+        if key != mission_key:
+            log.info("progress.json belongs to another mission; starting at goal 0")
+            return None
+        return index
+
+
+def _refuse_constant(name: str) -> float:
+    """JSON has no NaN or Infinity; Python's json module accepts them unless told otherwise."""
+    raise ValueError(f"{name} is not JSON")
+
+
+__all__ = [
+    "FILE_NAMES",
+    "InvalidStateFile",
+    "StateDirError",
+    "StateStore",
+    "mission_key",
+    "write_json_atomic",
+]

@@ -16,9 +16,9 @@ Modes (``[guidance] mode``):
 
 In every mode the yaw-rate feed-forward is r_d = U * curvature (rad/s, + = right turn) at the reference point.
 
-COMPLETE behaviour (``complete=True``): the path continues as a straight line from its end at the final
-heading and depth (``sample_extended``), flown at ``complete_speed_mps``; in ``track`` mode the reference
-point restarts from max(reference, vehicle projection) so it never pulls the vehicle backwards.
+Nothing is flown past the end of a path: after the last goal the autopilot runs the mission's end action
+(:mod:`onboard.core.autopilot`); the extension of the path beyond its end (``sample_extended``) only keeps
+the errors defined for a vehicle that has overshot the goal line.
 
 Arrival (latched per path): the vehicle is within ``arrival_position_tol_m`` of the path end and its heading
 within ``arrival_yaw_tol_deg`` of the final heading, or its along-track coordinate is past the end.
@@ -51,7 +51,6 @@ class GuidanceParams:
 
     - ``mode``: ``"track"`` (paper), ``"los"`` or ``"ilos"``.
     - ``speed_mps``: desired (uniform) speed U along the path, m/s.
-    - ``complete_speed_mps``: reduced speed on the extension after the last goal, m/s.
     - ``lookahead_m``: LOS lookahead distance Delta, m.
     - ``ilos_gain``: ILOS integral gain sigma (dimensionless).
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
@@ -75,7 +74,6 @@ class GuidanceParams:
 
     mode: GuidanceMode = "track"
     speed_mps: float = 1.0
-    complete_speed_mps: float = 0.5
     lookahead_m: float = 3.0
     ilos_gain: float = 0.3
     ilos_max_correction_deg: float = 30.0
@@ -92,7 +90,6 @@ class GuidanceParams:
 
     def __post_init__(self) -> None:
         require(self.speed_mps > 0.0, f"speed_mps must be > 0, got {self.speed_mps}")
-        require(self.complete_speed_mps >= 0.0, "complete_speed_mps must be >= 0")
         require(self.lookahead_m > 0.0, f"lookahead_m must be > 0, got {self.lookahead_m}")
         require(self.ilos_gain >= 0.0, f"ilos_gain must be >= 0, got {self.ilos_gain}")
         require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")
@@ -160,7 +157,6 @@ class GuidanceReference:
     e_yaw_rad: float
     e_pitch_rad: float
     arrived: bool
-    complete: bool
     nav_ok: bool = True
 
 
@@ -178,16 +174,11 @@ def step(
     state: GuidanceState,
     params: GuidanceParams,
     dt_s: float,
-    *,
-    complete: bool = False,
 ) -> tuple[GuidanceReference, GuidanceState, GuidanceDebug]:
-    """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``.
-
-    ``complete=True`` flies the straight extension beyond the path end at ``complete_speed_mps``.
-    """
+    """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``."""
     dt_s = max(0.0, dt_s) if math.isfinite(dt_s) else 0.0
     mode = params.mode
-    speed = params.complete_speed_mps if complete else params.speed_mps
+    speed = params.speed_mps
     length = path.length_m
     x_a, y_a, yaw_a = nav.x_m, nav.y_m, nav.yaw_rad
     nav_ok = math.isfinite(x_a) and math.isfinite(y_a) and math.isfinite(yaw_a)
@@ -210,8 +201,6 @@ def step(
     s_ref = state.s_ref_m
     ref_speed = speed
     if mode == "track":
-        if complete:
-            s_ref = max(s_ref, s_proj)
         if params.reference_accel_mps2 > 0.0:
             ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
         s_ref += ref_speed * dt_s
@@ -288,7 +277,6 @@ def step(
         e_yaw_rad=yaw_error(yaw_d, yaw_a) if nav_ok else math.nan,
         e_pitch_rad=ref.pitch_rad - nav.pitch_rad,
         arrived=arrived,
-        complete=complete,
         nav_ok=nav_ok,
     )
     new_state = GuidanceState(

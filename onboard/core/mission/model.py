@@ -1,4 +1,10 @@
-"""Mission data: 3-D goal poses and obstacle circles, in SI units and radians (NED frame)."""
+"""Mission data: 3-D goal poses and obstacle circles, in SI units and radians (NED frame).
+
+The ``validate`` methods check only what makes a value a value: every field is a real, finite number (a
+goal's yaw may be None = free). Every other rule (depth range, operating area, capacities, obstacle radius,
+MAVLink encodability, feasibility) lives in one place, :func:`onboard.core.mission.validate.check_mission`,
+which every door (mission files, MAVLink uploads, persisted missions) runs with the configuration.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +20,10 @@ class MissionError(ValueError):
         self.reason = reason
 
 
+def _is_finite_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
 @dataclass(frozen=True)
 class Goal:
     """A goal pose: position (m, NED), depth (m, positive down) and arrival yaw (rad), or None = free."""
@@ -23,14 +33,17 @@ class Goal:
     depth_m: float
     yaw_rad: float | None
 
+    def invalid_fields(self) -> tuple[str, ...]:
+        """The names of the fields that are not finite numbers (``yaw_rad`` may also be None)."""
+        bad = [n for n in ("x_m", "y_m", "depth_m") if not _is_finite_number(getattr(self, n))]
+        if self.yaw_rad is not None and not _is_finite_number(self.yaw_rad):
+            bad.append("yaw_rad")
+        return tuple(bad)
+
     def validate(self) -> None:
-        for name in ("x_m", "y_m", "depth_m"):
-            if not math.isfinite(getattr(self, name)):
-                raise MissionError("nan", f"goal {name} is not finite: {getattr(self, name)!r}")
-        if self.yaw_rad is not None and not math.isfinite(self.yaw_rad):
-            raise MissionError("nan", f"goal yaw_rad is not finite: {self.yaw_rad!r}")
-        if self.depth_m < 0.0:
-            raise MissionError("depth", f"goal depth {self.depth_m} m is above the surface")
+        """Raise :class:`MissionError` (reason ``"nan"``) if a field is not a finite number."""
+        for name in self.invalid_fields():
+            raise MissionError("nan", f"goal {name} is not a finite number: {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)
@@ -41,12 +54,14 @@ class Obstacle:
     y_m: float
     radius_m: float
 
+    def invalid_fields(self) -> tuple[str, ...]:
+        """The names of the fields that are not finite numbers."""
+        return tuple(n for n in ("x_m", "y_m", "radius_m") if not _is_finite_number(getattr(self, n)))
+
     def validate(self) -> None:
-        for name in ("x_m", "y_m", "radius_m"):
-            if not math.isfinite(getattr(self, name)):
-                raise MissionError("nan", f"obstacle {name} is not finite: {getattr(self, name)!r}")
-        if self.radius_m <= 0.0:
-            raise MissionError("radius", f"obstacle radius {self.radius_m} m must be positive")
+        """Raise :class:`MissionError` (reason ``"nan"``) if a field is not a finite number."""
+        for name in self.invalid_fields():
+            raise MissionError("nan", f"obstacle {name} is not a finite number: {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)
@@ -57,7 +72,12 @@ class Mission:
     obstacles: tuple[Obstacle, ...] = ()
 
     def validate(self) -> None:
-        for g in self.goals:
-            g.validate()
-        for o in self.obstacles:
-            o.validate()
+        """Raise :class:`MissionError` (reason ``"nan"``) naming the first goal or obstacle field that is
+        not a finite number."""
+        items: list[tuple[str, int, Goal | Obstacle]] = [("goal", i, g) for i, g in enumerate(self.goals)]
+        items += [("obstacle", i, o) for i, o in enumerate(self.obstacles)]
+        for kind, i, item in items:
+            for name in item.invalid_fields():
+                raise MissionError(
+                    "nan", f"{kind} {i}: {name} is not a finite number: {getattr(item, name)!r}"
+                )

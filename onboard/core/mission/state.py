@@ -2,23 +2,31 @@
 
 Pure: :func:`transition` takes the current :class:`MissionStatus` and one :class:`MissionEvent` and returns a
 :class:`Transition` (the new status, whether the event was accepted, and a human-readable reason). An illegal
-event leaves the status unchanged, ``accepted=False`` and says why. The loop logs transitions, not ticks.
+event leaves the status unchanged, ``accepted=False`` and says why. This table is the vocabulary of states;
+the one judge of commands, :meth:`onboard.core.autopilot.Autopilot.handle`, applies it after its own
+preconditions (navigation valid, goals present) and answers no-ops ("already armed") itself.
 
 Table (anything not listed is rejected)::
 
     IDLE      arm -> ARMED (needs >= 1 goal)         mission_replaced -> IDLE       abort -> ABORT
-    ARMED     start -> RUNNING (goal 0)              disarm -> IDLE                 mission_replaced -> ARMED
+    ARMED     start -> RUNNING (at the current goal) disarm -> IDLE                 mission_replaced -> ARMED
               abort, failsafe -> ABORT
     RUNNING   goal_reached -> RUNNING (next goal) or COMPLETE (after the last)     hold -> HOLD
-              mission_replaced -> RUNNING (goal 0)   abort, failsafe -> ABORT
-    HOLD      resume -> RUNNING                      disarm -> IDLE                 mission_replaced -> HOLD
+              mission_replaced -> HOLD (goal 0: a new mission needs an explicit START)
+              disarm_forced -> IDLE                  abort, failsafe -> ABORT
+    HOLD      resume, start -> RUNNING               disarm -> IDLE                 mission_replaced -> HOLD
               abort, failsafe -> ABORT
-    COMPLETE  disarm -> IDLE                         mission_replaced -> ARMED      abort, failsafe -> ABORT
+    COMPLETE  arm -> ARMED (goal 0: fly it again)    disarm -> IDLE                 abort, failsafe -> ABORT
+              mission_replaced -> IDLE (surfaced) or ARMED (loitering: still armed)
     ABORT     disarm -> IDLE (operator acknowledges) mission_replaced -> ABORT (goal 0)
 
-Behaviour per state (the loop's job): IDLE/ARMED propeller off, fins neutral; RUNNING flies the path to goal
-``goal_index``; HOLD is the loop's choice (e.g. hold heading and depth); COMPLETE flies the straight
-extension at reduced speed (``guidance.step(..., complete=True)``); ABORT sends
+``disarm_forced`` is accepted wherever ``disarm`` is, and in RUNNING. ``mission_replaced`` means new goals
+(the goal index goes to 0); a fence change alone is no event (the state and the goal stay). The armed state
+never changes with a mission: the states that may move the actuators stay such, the others stay still.
+
+Behaviour per state (the autopilot's job): IDLE/ARMED propeller off, fins neutral; RUNNING flies the path to
+goal ``goal_index``; HOLD propeller off, fins neutral, still armed; COMPLETE does the configured end action
+(``surface``: propeller 0 and fins neutral at once; ``loiter``: circle the last goal); ABORT sends
 :func:`onboard.core.safety.failsafe.abort_command`. A FAILSAFE in IDLE is rejected (nothing is moving) and in
 ABORT it is already in force.
 """
@@ -28,14 +36,11 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, replace
 
+from onboard.protocol.messages import MissionStateCode
 
-class MissionState(enum.Enum):
-    IDLE = "IDLE"
-    ARMED = "ARMED"
-    RUNNING = "RUNNING"
-    HOLD = "HOLD"
-    ABORT = "ABORT"
-    COMPLETE = "COMPLETE"
+#: The mission states: the bus contract's enumeration (the DBC's ONBOARD_HEARTBEAT node_state values), so the
+#: vocabulary is spelled once; names are what the operator reads, values what the bus carries.
+MissionState = MissionStateCode
 
 
 class MissionEvent(enum.Enum):
@@ -48,6 +53,7 @@ class MissionEvent(enum.Enum):
     GOAL_REACHED = "goal_reached"
     MISSION_REPLACED = "mission_replaced"
     FAILSAFE = "failsafe"
+    DISARM_FORCED = "disarm_forced"
 
 
 @dataclass(frozen=True)
@@ -88,6 +94,7 @@ _EDGES: dict[tuple[MissionState, MissionEvent], MissionState] = {
     (S.IDLE, E.MISSION_REPLACED): S.IDLE,
     (S.ARMED, E.START): S.RUNNING,
     (S.ARMED, E.DISARM): S.IDLE,
+    (S.ARMED, E.DISARM_FORCED): S.IDLE,
     (S.ARMED, E.ABORT): S.ABORT,
     (S.ARMED, E.FAILSAFE): S.ABORT,
     (S.ARMED, E.MISSION_REPLACED): S.ARMED,
@@ -95,45 +102,61 @@ _EDGES: dict[tuple[MissionState, MissionEvent], MissionState] = {
     (S.RUNNING, E.ABORT): S.ABORT,
     (S.RUNNING, E.FAILSAFE): S.ABORT,
     (S.RUNNING, E.GOAL_REACHED): S.RUNNING,
-    (S.RUNNING, E.MISSION_REPLACED): S.RUNNING,
+    (S.RUNNING, E.MISSION_REPLACED): S.HOLD,
+    (S.RUNNING, E.DISARM_FORCED): S.IDLE,
     (S.HOLD, E.RESUME): S.RUNNING,
+    (S.HOLD, E.START): S.RUNNING,
     (S.HOLD, E.DISARM): S.IDLE,
+    (S.HOLD, E.DISARM_FORCED): S.IDLE,
     (S.HOLD, E.ABORT): S.ABORT,
     (S.HOLD, E.FAILSAFE): S.ABORT,
     (S.HOLD, E.MISSION_REPLACED): S.HOLD,
+    (S.COMPLETE, E.ARM): S.ARMED,
     (S.COMPLETE, E.DISARM): S.IDLE,
+    (S.COMPLETE, E.DISARM_FORCED): S.IDLE,
     (S.COMPLETE, E.ABORT): S.ABORT,
     (S.COMPLETE, E.FAILSAFE): S.ABORT,
-    (S.COMPLETE, E.MISSION_REPLACED): S.ARMED,
+    (S.COMPLETE, E.MISSION_REPLACED): S.IDLE,
     (S.ABORT, E.DISARM): S.IDLE,
+    (S.ABORT, E.DISARM_FORCED): S.IDLE,
     (S.ABORT, E.MISSION_REPLACED): S.ABORT,
 }
 
 
 def transition(
-    status: MissionStatus, event: MissionEvent, *, goal_count: int | None = None, detail: str = ""
+    status: MissionStatus,
+    event: MissionEvent,
+    *,
+    goal_count: int | None = None,
+    goal_index: int | None = None,
+    detail: str = "",
+    complete_armed: bool = False,
 ) -> Transition:
     """Apply ``event`` to ``status``.
 
     ``goal_count`` is required with ``MISSION_REPLACED`` (the new mission's number of goals, >= 0);
-    ``detail`` is appended to the reason (e.g. the failsafe's reason or who sent the command).
+    ``goal_index`` is the goal a START begins at (default: the current goal, the mission's progress);
+    ``detail`` is appended to the reason (e.g. the failsafe's reason or who sent the command);
+    ``complete_armed``: COMPLETE is armed (the loiter end action), so a new mission leaves it ARMED.
     """
     suffix = f": {detail}" if detail else ""
     target = _EDGES.get((status.state, event))
     if target is None:
-        why = f"{event.value} not allowed in {status.state.value}"
+        why = f"{event.value} not allowed in {status.state.name}"
         return Transition(status, False, why + suffix)
 
     if event is E.MISSION_REPLACED:
         if goal_count is None or goal_count < 0:
             return Transition(status, False, "mission_replaced needs the new goal count" + suffix)
-        if status.state is S.RUNNING and goal_count == 0:
-            return Transition(status, False, "mission_replaced with no goals while RUNNING" + suffix)
-        reason = f"mission replaced ({goal_count} goals), goal 0" + suffix
+        if status.state is S.COMPLETE and complete_armed:
+            target = S.ARMED
+        reason = f"new mission ({goal_count} goals), goal 0" + suffix
+        if status.state is S.RUNNING:
+            reason += "; holding until START"
         new = MissionStatus(target, 0, goal_count, reason)
         return Transition(new, True, reason)
 
-    if event in (E.ARM, E.START) and status.goal_count == 0:
+    if event in (E.ARM, E.START, E.RESUME) and status.goal_count == 0:
         return Transition(status, False, f"{event.value} rejected: the mission has no goals" + suffix)
 
     if event is E.GOAL_REACHED:
@@ -146,6 +169,13 @@ def transition(
         reason = f"goal {done} reached, next goal {done + 1}" + suffix
         return Transition(replace(status, goal_index=done + 1, reason=reason), True, reason)
 
-    index = 0 if event is E.START else status.goal_index
-    reason = f"{event.value}: {status.state.value} -> {target.value}" + suffix
+    index = status.goal_index
+    if event is E.ARM and status.state is S.COMPLETE:
+        index = 0  # fly the mission again
+    elif event in (E.START, E.RESUME):
+        index = status.goal_index if goal_index is None else goal_index
+        if not 0 <= index < status.goal_count:
+            why = f"{event.value} rejected: no goal {index} (the mission has {status.goal_count})"
+            return Transition(status, False, why + suffix)
+    reason = f"{event.value}: {status.state.name} -> {target.name}" + suffix
     return Transition(replace(status, state=target, goal_index=index, reason=reason), True, reason)

@@ -1,4 +1,5 @@
-"""Fixtures: an in-process vehicle endpoint (free port, temporary state dir) with a fake loop thread."""
+"""Fixtures: an in-process vehicle (free port, temporary state dir): the real core and link over a simple
+plant (``onboard.app.standalone``), simulated time 10 times faster than the wall clock."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import pytest
 
 from groundstation.mavclient import MavClient
 from onboard.adapters.mavlink.config import MavlinkConfig
-from onboard.adapters.mavlink.endpoint import VehicleLink
-from onboard.adapters.mavlink.standalone import FakeLoop
+from onboard.app.standalone import build
+
+TIME_SCALE = 10.0
 
 
 class Vehicle:
@@ -19,10 +21,10 @@ class Vehicle:
         table: dict[str, object] = {"endpoints": ("udpin:127.0.0.1:0",), "state_dir": str(state_dir)}
         table.update(cfg)
         self.config = MavlinkConfig(**table)  # type: ignore[arg-type]
-        self.link = VehicleLink(self.config)
-        self.loop = FakeLoop(self.link, speed_mps=20.0)
+        self.loop = build(self.config)
+        self.link = self.loop.link
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self.loop.run, args=(self._stop, 50.0), daemon=True)
+        self._thread = threading.Thread(target=self.loop.run, args=(self._stop, TIME_SCALE), daemon=True)
 
     @property
     def port(self) -> int:

@@ -1,4 +1,5 @@
-"""The vehicle endpoint over real UDP on 127.0.0.1 with the ground-station client and a fake loop."""
+"""The vehicle link over real UDP on 127.0.0.1 with the ground-station client; the fake loop runs the real
+judge (``Autopilot.handle``) over a fake plant."""
 
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from groundstation.mavclient import MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item, obstacle_item
 from onboard.adapters.mavlink import api
-from onboard.adapters.mavlink.endpoint import CAPABILITIES, VehicleLink
+from onboard.adapters.mavlink.endpoint import CAPABILITIES
+from onboard.app.standalone import make_link
+from onboard.core import commands as core
 from onboard.core.mission.model import Goal, Mission
 from tests.integration.mavlink.conftest import Vehicle
 
@@ -47,14 +50,18 @@ def test_heartbeat_and_autopilot_version(vehicle: Vehicle) -> None:
         assert c.command(12345) == mavlink.MAV_RESULT_UNSUPPORTED
 
 
-def test_commands_judged_against_state_and_mission(vehicle: Vehicle) -> None:
+def test_commands_judged_by_the_core_with_reasons(vehicle: Vehicle) -> None:
     with vehicle.client() as c:
-        assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # not armed
-        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
-        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0  # idempotent
         assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_DENIED  # no goals
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == mavlink.MAV_RESULT_DENIED
+        wait_for(c, "STATUSTEXT", pred=lambda m: "no goals" in m.text)  # the core's reason
         assert c.upload(GOALS).ok
-        wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "ARMED")
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == 0  # already armed
+        hb = wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "ARMED")
+        assert (
+            hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED and hb.system_status == mavlink.MAV_STATE_ACTIVE
+        )
         assert c.command(mavlink.MAV_CMD_MISSION_START) == 0
         seen: list[str] = []
         t_end = time.monotonic() + 5.0
@@ -81,9 +88,9 @@ def test_mavsdk_style_mode_change_starts_mission_and_set_current(vehicle: Vehicl
         assert c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == 0
         wait_for(c, "MISSION_CURRENT", pred=lambda m: m.seq == 1)
         assert c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 5) == mavlink.MAV_RESULT_DENIED
+        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0.0) == mavlink.MAV_RESULT_DENIED  # not forced
         assert c.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0) == 0
         wait_for(c, "HEARTBEAT", pred=lambda m: state_from_heartbeat(m) == "HOLD")
-        assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0.0) == mavlink.MAV_RESULT_DENIED  # not forced
 
 
 def test_upload_download_fence_clear(vehicle: Vehicle) -> None:
@@ -104,68 +111,62 @@ def test_upload_download_fence_clear(vehicle: Vehicle) -> None:
 
 
 def test_params_set_refuse_persist(tmp_path: Path) -> None:
-    v = Vehicle(tmp_path / "s").start(with_loop=False)
+    v = Vehicle(tmp_path / "s").start()
     try:
         with v.client() as c:
             assert len(c.param_list()) == len(v.link.params.specs)
-            ok, val = c.param_set("PD_RUD_KP_Y", 0.25)
+            ok, val = c.param_set("PD_KP5", 0.25)
             assert ok and val == pytest.approx(0.25)
-            ok, val = c.param_set("PD_RUD_KP_Y", 55.0)  # out of range: refused, old value re-sent
+            assert v.loop.ap.config.control.gains.Kp5 == pytest.approx(0.25)  # the core applied it
+            ok, val = c.param_set("PD_KP5", 555.0)  # out of range: refused by the core, value in force
             assert not ok and val == pytest.approx(0.25)
-            assert c.param_get("PD_RUD_KP_Y") == pytest.approx(0.25)
-        events = v.link.take_events()
-        assert api.ParamChanged("PD_RUD_KP_Y", pytest.approx(0.25)) in events
+            assert c.param_get("PD_KP5") == pytest.approx(0.25)
     finally:
         v.stop()
-    v2 = VehicleLink(v.config)
-    assert v2.params.get("PD_RUD_KP_Y") == pytest.approx(0.25)
-    assert api.ParamChanged("PD_RUD_KP_Y", pytest.approx(0.25)) in v2.take_events()
+    v2 = make_link(v.config)  # the persisted edit is handed to the core at start
+    (req,) = v2.take_requests()
+    assert req.command == core.SetParam("PD_KP5", pytest.approx(0.25), "persisted edit")
 
 
 def test_mission_persisted_and_initial_mission_wins(tmp_path: Path) -> None:
-    v = Vehicle(tmp_path / "s").start(with_loop=False)
+    v = Vehicle(tmp_path / "s").start()
     try:
         with v.client() as c:
             assert c.upload(GOALS).ok
     finally:
         v.stop()
-    again = VehicleLink(v.config)
-    (ev,) = [e for e in again.take_events() if isinstance(e, api.MissionReplaced)]
-    assert [g.x_m for g in ev.mission.goals] == [10.0, 10.0]
+    assert [g.x_m for g in make_link(v.config).mission().goals] == [10.0, 10.0]
     given = Mission(goals=(Goal(1.0, 2.0, 3.0, None),))
-    wins = VehicleLink(v.config, initial_mission=given)
+    wins = make_link(v.config, initial_mission=given)
     assert wins.mission().goals == given.goals
-    assert VehicleLink(v.config).mission().goals == given.goals  # and it was persisted
+    assert make_link(v.config).mission().goals == given.goals  # and it was persisted
 
 
-def test_gcs_heartbeat_loss_emits_configured_action(tmp_path: Path) -> None:
+def test_gcs_heartbeat_loss_is_a_request_and_regain_a_statustext(tmp_path: Path) -> None:
     v = Vehicle(tmp_path / "s", gcs_timeout_s=0.5, gcs_loss_action="hold").start(with_loop=False)
     try:
         c = v.client()
         c.close()  # the GCS goes silent
         t_end = time.monotonic() + 3.0
-        events: list = []
-        while time.monotonic() < t_end and not any(isinstance(e, api.GcsLinkLost) for e in events):
-            events += v.link.take_events()
+        reqs: list[api.Request] = []
+        while time.monotonic() < t_end and not reqs:
+            reqs += v.link.take_requests()
             time.sleep(0.05)
-        assert api.GcsLinkLost("hold") in events
-        with v.client():
-            t_end = time.monotonic() + 3.0
-            while time.monotonic() < t_end and api.GcsLinkRegained() not in events:
-                events += v.link.take_events()
-                time.sleep(0.05)
-        assert api.GcsLinkRegained() in events
+        assert [r.command for r in reqs] == [core.LinkLost("hold", "MAVLink GCS watch")]
+        v.link.answer(reqs[0].id, core.accepted("holding"))
+        with v.client() as c2:
+            wait_for(c2, "STATUSTEXT", pred=lambda m: m.text == "GCS link regained")
     finally:
         v.stop()
 
 
-def test_events_flow_to_loop_without_blocking(vehicle: Vehicle) -> None:
-    # the loop API is cheap: 10,000 publish/take pairs in well under a second while the link runs
-    link = VehicleLink(vehicle.config)
+def test_the_loop_api_is_cheap(vehicle: Vehicle) -> None:
+    # 10,000 publish/take pairs in well under a second while the link runs
+    link = vehicle.link
     t0 = time.perf_counter()
     for i in range(10_000):
         link.publish(api.VehicleSnapshot(t_s=i * 0.05))
-        link.take_events()
+        link.take_requests()
     assert time.perf_counter() - t0 < 1.0
 
 

@@ -28,7 +28,7 @@ def goals_for(k: int, n: int) -> list:
 def test_twenty_uploads_through_20_percent_loss_relay(tmp_path: Path) -> None:
     # GIVEN 20 % loss each way with reordering WHEN 20 uploads run in a row
     # THEN after each the vehicle holds exactly the previous or the new mission, never a mix
-    v = Vehicle(tmp_path / "s").start(with_loop=False)
+    v = Vehicle(tmp_path / "s").start()
     successes, held_new = 0, 0
     try:
         with LossyRelay(("127.0.0.1", v.port), loss=0.2, reorder=0.1, seed=7) as relay:
@@ -121,7 +121,7 @@ def test_garbage_flood_no_crash_no_state_change_and_counted(vehicle: Vehicle) ->
 def test_signing_rejects_unsigned_and_wrong_key_and_survives_forged_future(tmp_path: Path) -> None:
     key = bytes(range(1, 33))
     (tmp_path / "key").write_text(key.hex())
-    v = Vehicle(tmp_path / "s", signing_key_file=str(tmp_path / "key")).start(with_loop=False)
+    v = Vehicle(tmp_path / "s", signing_key_file=str(tmp_path / "key")).start()
     try:
         unsigned = MavClient(f"udpout:127.0.0.1:{v.port}")
         unsigned.heartbeat()
@@ -156,7 +156,7 @@ def test_kill_9_after_ack_loses_nothing(tmp_path: Path) -> None:
             c.heartbeat()
             c.wait_heartbeat(5.0)
             assert c.upload(goals_for(5, 3)).ok
-            assert c.param_set("LIM_RPS", 12.5)[0]
+            assert c.param_set("LIM_RPS_MAX", 12.5)[0]
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(timeout=5.0)
     finally:
@@ -169,7 +169,7 @@ def test_kill_9_after_ack_loses_nothing(tmp_path: Path) -> None:
             c.wait_heartbeat(5.0)
             got = c.download()
             assert [(i.x / 1e4, i.y / 1e4) for i in got] == [(5.0, 0.0), (5.0, 1.0), (5.0, 2.0)]
-            assert c.param_get("LIM_RPS") == 12.5
+            assert c.param_get("LIM_RPS_MAX") == 12.5
     finally:
         stop_vehicle(proc)
 
@@ -178,7 +178,7 @@ def test_standalone_rejects_bad_config(tmp_path: Path) -> None:
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[mavlink]\nno_such_key = 1\n")
     r = subprocess.run(
-        [sys.executable, "-m", "onboard.adapters.mavlink.standalone", "--config", str(cfg)],
+        [sys.executable, "-m", "onboard.app.standalone", "--config", str(cfg)],
         capture_output=True, text=True, timeout=30,
     )  # fmt: skip
     assert r.returncode == 2 and "no_such_key" in r.stderr

@@ -1,109 +1,213 @@
-"""The autopilot composition: events, autostart, planning, a mission without goals, failsafe on stale nav."""
+"""The autopilot: the one judge of commands, planning off the tick, arrival and misses, a mission's end."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
-from onboard.app.config import load_config
-from onboard.core.autopilot import Autopilot
-from onboard.core.mission.model import Goal, Mission
+from auv_common.config import from_table, load_toml
+from onboard.core import commands as c
+from onboard.core import nav
+from onboard.core.autopilot import Autopilot, compute_plan
+from onboard.core.config import CoreConfig
+from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.state import MissionEvent, MissionState
+from onboard.core.planner.errors import PlannerError
 from onboard.protocol import messages as m
 
 DT = 0.05
+S = MissionState
 
 
 def sensors(
-    t: float, x: float = 0.0, y: float = 0.0, depth: float = 1.0, yaw: float = 0.0
+    t: float, x: float = 0.0, y: float = 0.0, depth: float = 1.0, yaw: float = 0.0, u: float = 0.0
 ) -> dict[type, object]:
     msgs = [
         m.AhrsAttitude(0.0, 0.0, yaw, t),
         m.AhrsRates(0.0, 0.0, 0.0, t),
         m.DepthMeas(depth, t),
-        m.DvlVelocity(0.0, 0.0, 0.0, True, t),
+        m.DvlVelocity(u, 0.0, 0.0, True, t),
         m.PositionFix(x, y, t),
     ]
     return {type(msg): msg for msg in msgs}
 
 
-def started(goals: tuple[Goal, ...]) -> Autopilot:
-    ap = Autopilot(load_config().core)
-    ap.replace_mission(Mission(goals))
+ONBOARD_TOML = Path(__file__).parents[3] / "onboard" / "config" / "onboard.toml"
+
+
+def load_core() -> CoreConfig:
+    """The core tables of the onboard.toml the vehicle flies with (no bus, loop or link)."""
+    data = load_toml(ONBOARD_TOML)
+    tables = {f.name for f in dataclasses.fields(CoreConfig)}
+    return from_table(CoreConfig, {k: v for k, v in data.items() if k in tables}, "onboard.toml")
+
+
+def core(**mission: object) -> CoreConfig:
+    cfg = load_core()
+    if mission:
+        cfg = dataclasses.replace(cfg, mission=dataclasses.replace(cfg.mission, **mission))  # type: ignore[arg-type]
+    return cfg
+
+
+def run_plans(ap: Autopilot) -> bool:
+    """What the loop's planning worker does, synchronously: True if a plan was asked for."""
+    req = ap.take_plan_request()
+    if req is None:
+        return False
+    try:
+        result = compute_plan(req)
+    except PlannerError as exc:
+        ap.plan_done(req.request_id, exc)
+    else:
+        ap.plan_done(req.request_id, result)
+    return True
+
+
+def tick(ap: Autopilot, t: float, *, jump: bool = False, **kw: float):  # type: ignore[no-untyped-def]
+    """One tick with the sensors at ``kw``; ``jump``: the filter takes the fix afresh (a test teleport)."""
+    if jump:
+        ap.nav_state = nav.NavFilterState.initial()
+    out = ap.step(sensors(t, **kw), t, DT)
+    run_plans(ap)
+    return out
+
+
+def started(goals: tuple[Goal, ...], obstacles: tuple[Obstacle, ...] = (), **mission: object) -> Autopilot:
+    ap = Autopilot(core(**mission))
+    assert ap.replace_mission(Mission(goals, obstacles)).accepted
     ap.request_autostart()
-    ap.step(sensors(0.0), 0.0, DT)
+    tick(ap, 0.0)
     return ap
 
 
-def test_autostart_waits_for_valid_navigation() -> None:
+def test_autostart_waits_for_valid_navigation_then_plans_off_the_tick() -> None:
     # GIVEN an armed autostart and no sensor data yet
-    ap = Autopilot(load_config().core)
+    ap = Autopilot(core())
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
     out = ap.step({}, 0.0, DT)
-    # THEN it stays ARMED with a neutral command; WHEN navigation becomes valid THEN it starts and plans
-    assert out.status.state is MissionState.ARMED and out.propeller_rps == 0.0
+    assert out.status.state is S.ARMED and out.propeller_rps == 0.0
+    # WHEN navigation becomes valid THEN it starts, asks for a plan and holds still until it arrives
     out = ap.step(sensors(0.05), 0.05, DT)
-    assert out.status.state is MissionState.RUNNING
-    assert ap.path is not None and ap.path.length_m > 19.0
-
-
-def test_start_is_refused_without_navigation() -> None:
-    ap = Autopilot(load_config().core)
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
-    ap.apply(MissionEvent.ARM)
-    assert not ap.apply(MissionEvent.START).accepted
-
-
-def test_resume_into_a_mission_without_goals_holds_instead_of_crashing() -> None:
-    # GIVEN a running mission that is held, then replaced by an empty one (a clear), then resumed
-    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
-    ap.apply(MissionEvent.HOLD)
-    ap.replace_mission(Mission(()))
-    ap.apply(MissionEvent.RESUME)
-    # WHEN the next tick runs THEN there is nothing to plan: back to HOLD with the reason, neutral output
+    assert out.status.state is S.RUNNING and ap.plan_pending and out.propeller_rps == 0.0
+    assert ap.path is None
+    assert run_plans(ap)
     out = ap.step(sensors(0.1), 0.1, DT)
-    assert out.status.state is MissionState.HOLD
-    assert "no goal" in out.status.reason
+    assert ap.path is not None and ap.path.length_m > 19.0 and out.propeller_rps > 0.0
+
+
+def test_start_without_navigation_is_temporarily_rejected_with_the_reason() -> None:
+    ap = Autopilot(core())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
+    assert ap.handle(c.Arm()).accepted
+    v = ap.handle(c.Start())
+    assert v.outcome is c.Outcome.TEMPORARILY_REJECTED and "navigation" in v.reason
+    assert ap.ready == (False, "navigation not valid yet")
+
+
+def test_commands_the_old_endpoint_acked_and_the_core_refused_now_have_one_verdict() -> None:
+    # ARM in COMPLETE: accepted, and it really arms (goal 0, fly again)
+    ap = started((Goal(2.0, 0.0, 1.0, None),))
+    ap.status = dataclasses.replace(ap.status, state=S.COMPLETE, goal_index=1)
+    v = ap.handle(c.Arm())
+    assert v.accepted and ap.status.state is S.ARMED and ap.status.goal_index == 0
+    # a forced disarm in RUNNING: accepted and carried out, propeller 0 in the same tick
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    for k in range(1, 10):
+        out = tick(ap, k * DT)
+    assert out.status.state is S.RUNNING and out.propeller_rps > 0.0
+    assert not ap.handle(c.Disarm()).accepted
+    v = ap.handle(c.Disarm(forced=True))
+    assert v.accepted and ap.status.state is S.IDLE
+    out = tick(ap, 0.5)
+    assert out.propeller_rps == 0.0 and not ap.actuators_live
+
+
+def test_every_refusal_has_a_reason() -> None:
+    ap = Autopilot(core())
+    for cmd in (c.Arm(), c.Start(), c.Hold(), c.Resume(), c.SetCurrent(3), c.SetMode("loiter")):
+        v = ap.handle(cmd)
+        assert not v.accepted and len(v.reason) > 10, (cmd, v)
+
+
+def test_an_empty_mission_while_running_holds_and_resume_is_refused() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    assert ap.handle(c.ReplaceMission(Mission(()), True)).accepted
+    assert ap.status.state is S.HOLD and ap.actuators_live  # still armed, holding
+    v = ap.handle(c.Resume())
+    assert not v.accepted and "no goals" in v.reason
+    out = tick(ap, 0.1)
     assert out.propeller_rps == 0.0
 
 
-def test_unreachable_goal_holds_with_the_planner_reason() -> None:
-    # GIVEN a goal inside an obstacle (the planner refuses it)
-    ap = Autopilot(load_config().core)
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), ()))
-    from onboard.core.mission.model import Obstacle
-
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),)))
-    ap.request_autostart()
-    out = ap.step(sensors(0.0), 0.0, DT)
-    assert out.status.state is MissionState.HOLD
-    assert "goal_in_obstacle" in out.planner_error
+def test_a_new_mission_while_running_holds_until_start_and_keeps_the_armed_state() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0)))
+    ap.status = dataclasses.replace(ap.status, goal_index=1)
+    v = ap.handle(c.ReplaceMission(Mission((Goal(10.0, 5.0, 1.0, None),)), True))
+    assert v.accepted and ap.status.state is S.HOLD and ap.status.goal_index == 0 and ap.actuators_live
+    assert ap.handle(c.Start()).accepted and ap.status.state is S.RUNNING
 
 
-def test_stale_navigation_aborts_with_propeller_off_and_nose_up() -> None:
+def test_a_fence_upload_keeps_the_state_and_the_current_goal() -> None:
+    # RUNNING at goal 1: a fence change re-plans the leg but never resets the progress
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0)))
+    assert ap.handle(c.SetCurrent(1)).accepted
+    tick(ap, 0.05)
+    tick(ap, 0.1)
+    assert ap.path is not None and ap.path_goal_index == 1
+    fenced = Mission(ap.mission.goals, (Obstacle(20.0, 10.0, 1.0),))
+    v = ap.handle(c.ReplaceMission(fenced, goals_changed=False))
+    assert v.accepted and ap.status.state is S.RUNNING and ap.status.goal_index == 1
+    assert ap.path is not None  # the old path is flown until the new one arrives
+    tick(ap, 0.15)
+    assert ap.mission.obstacles and ap.path_goal_index == 1
+    # COMPLETE: a fence upload does not re-arm
+    ap.status = dataclasses.replace(ap.status, state=S.COMPLETE, goal_index=2)
+    assert ap.handle(c.ReplaceMission(Mission(ap.mission.goals), goals_changed=False)).accepted
+    assert ap.status.state is S.COMPLETE
+
+
+def test_unreachable_goal_holds_with_the_planner_reason_and_resume_plans_again() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),))
+    out = tick(ap, 0.05)
+    assert out.status.state is S.HOLD and "goal_in_obstacle" in out.planner_error
+    notes = ap.take_notes()
+    assert any("cannot plan goal 0" in n.text and n.severity is c.Severity.WARNING for n in notes)
+    ap.handle(c.ReplaceMission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)), goals_changed=False))
+    assert ap.handle(c.Resume()).accepted
+    tick(ap, 0.1)
+    out = tick(ap, 0.15)
+    assert out.status.state is S.RUNNING and ap.path is not None and out.propeller_rps > 0.0
+
+
+def test_stale_navigation_aborts_with_propeller_off_at_once_and_nose_up() -> None:
     ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    for k in range(1, 20):
+        out = tick(ap, k * DT)
+    assert out.propeller_rps > 0.0
     out = ap.step(sensors(0.0), 5.0, DT)  # the same samples, 5 s old
+    assert out.status.state is S.ABORT and out.propeller_rps == 0.0  # no ramp-down: not live
     for k in range(1, 20):  # the fins move at their rate limit towards the abort position
         out = ap.step(sensors(0.0), 5.0 + k * DT, DT)
-    assert out.status.state is MissionState.ABORT and "navigation stale" in out.status.reason
-    assert out.mode is m.ActuatorMode.ABORT
-    assert out.propeller_rps == 0.0
+    assert "navigation stale" in out.status.reason and out.mode is m.ActuatorMode.ABORT
     assert out.stern_port_rad < 0.0 and out.stern_starboard_rad < 0.0  # negative stern = nose up
     assert math.isclose(out.rudder_rad, 0.0, abs_tol=1e-9)
 
 
 def test_armed_sends_safe_and_a_latched_actuator_failsafe_blocks_the_start() -> None:
-    ap = Autopilot(load_config().core)
+    ap = Autopilot(core())
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
-    ap.apply(MissionEvent.ARM)
+    ap.handle(c.Arm())
     cache = sensors(0.0)
     cache[m.PropStatus] = m.PropStatus(0.0, False, True, False, 0, 0.0)  # failsafe latched
     out = ap.step(cache, 0.0, DT)
-    assert out.mode is m.ActuatorMode.SAFE  # ARMED: propeller off, fins neutral, and it clears the latch
-    assert not ap.apply(MissionEvent.START).accepted
+    assert out.mode is m.ActuatorMode.SAFE and ap.actuators_live
+    v = ap.handle(c.Start())
+    assert v.outcome is c.Outcome.TEMPORARILY_REJECTED and "failsafe" in v.reason
     cache[m.PropStatus] = m.PropStatus(0.0, False, False, False, 0, 0.05)  # cleared by the SAFE command
     ap.step(cache, 0.05, DT)
-    assert ap.apply(MissionEvent.START).accepted
+    assert ap.handle(c.Start()).accepted
 
 
 def test_actuator_failsafe_while_running_aborts() -> None:
@@ -111,69 +215,134 @@ def test_actuator_failsafe_while_running_aborts() -> None:
     cache = sensors(0.05)
     cache[m.PropStatus] = m.PropStatus(0.0, False, True, False, 0, 0.05)
     out = ap.step(cache, 0.05, DT)
-    assert out.status.state is MissionState.ABORT and "actuator" in out.status.reason
+    assert out.status.state is S.ABORT and "actuator" in out.status.reason
 
 
 def test_a_new_start_plans_afresh_from_where_the_vehicle_is() -> None:
-    # GIVEN a mission started, aborted, disarmed, then (the vehicle turned) armed and started again
     ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    tick(ap, 0.05)
     first_path = ap.path
-    ap.apply(MissionEvent.ABORT)
-    ap.apply(MissionEvent.DISARM)
-    ap.apply(MissionEvent.ARM)
-    ap.step(sensors(1.0, yaw=1.0), 1.0, DT)
-    assert ap.apply(MissionEvent.START).accepted
-    ap.step(sensors(1.05, yaw=1.0), 1.05, DT)
-    # THEN a new path is planned from the pose at the new start (heading 1 rad), not the old one (north)
+    ap.handle(c.Abort())
+    ap.handle(c.Disarm())
+    ap.handle(c.Arm())
+    tick(ap, 1.0, yaw=1.0)
+    assert ap.handle(c.Start()).accepted
+    tick(ap, 1.05, yaw=1.0)
+    tick(ap, 1.1, yaw=1.0)
     assert ap.path is not None and ap.path is not first_path
     assert abs(ap.path.sample(0.0).yaw_rad - 1.0) < 0.01
 
 
-def test_resume_after_a_planning_failure_plans_again() -> None:
-    from onboard.core.mission.model import Obstacle
-
-    ap = Autopilot(load_config().core)
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),)))
-    ap.request_autostart()
-    ap.step(sensors(0.0), 0.0, DT)
-    assert ap.status.state is MissionState.HOLD
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))  # the operator removes the obstacle
-    assert ap.apply(MissionEvent.RESUME).accepted
-    out = ap.step(sensors(0.05), 0.05, DT)
-    assert out.status.state is MissionState.RUNNING and ap.path is not None and out.propeller_rps > 0.0
+def test_start_continues_from_the_restored_progress_and_at_an_item() -> None:
+    ap = Autopilot(core())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0))))
+    assert ap.restore_progress(1)
+    ap.handle(c.Arm())
+    tick(ap, 0.0)
+    assert ap.handle(c.Start()).accepted and ap.status.goal_index == 1
+    ap.handle(c.Hold())
+    assert ap.handle(c.Start(first_goal=0)).accepted and ap.status.goal_index == 0
+    assert ap.status.state is S.RUNNING
 
 
 def test_autostart_is_not_left_pending_when_arming_fails_or_after_abort() -> None:
-    ap = Autopilot(load_config().core)
-    ap.request_autostart()  # no mission: ARM rejected
+    ap = Autopilot(core())
+    ap.request_autostart()  # no mission: ARM refused
     assert not ap.autostart_pending
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
-    ap.apply(MissionEvent.ABORT)
+    ap.handle(c.Abort())
     assert not ap.autostart_pending
 
 
-def test_mavlink_start_at_an_item_and_start_in_hold_resumes() -> None:
-    from onboard.adapters.mavlink import api
-    from onboard.adapters.mavlink import bridge as link_bridge
+def _fly_to(ap: Autopilot, x: float, y: float, t0: float) -> None:
+    """Put the vehicle's estimate just past the goal line of goal 0 at (x, y) (heading north)."""
+    for k in range(3):
+        tick(ap, t0 + k * DT, x=x - 0.3 + 0.3 * k, y=y, u=1.0)
 
-    ap = Autopilot(load_config().core)
-    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0))))
-    ap.apply(MissionEvent.ARM)
+
+def test_a_goal_is_reached_only_within_the_arrival_radius_else_re_planned_then_held() -> None:
+    # GIVEN a goal at (20, 0) heading north and the vehicle crossing its goal line 2 m to the side
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), max_tries=2)
+    tick(ap, 0.05)
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    tick(ap, 0.1, x=20.1, y=2.0, jump=True)
+    # THEN it is a miss: not COMPLETE, a re-plan to the same goal from where it is, with a note
+    assert ap.status.state is S.RUNNING and ap.goals_reached == 0 and ap.attempt == 2
+    assert any("missed by 2.00 m" in t for t in ap.take_events())
+    # WHEN it misses again THEN it holds with the reason (max_tries = 2)
+    tick(ap, 0.15, x=20.1, y=2.0)
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    tick(ap, 0.2, x=20.1, y=2.0)
+    assert ap.status.state is S.HOLD and "missed by" in ap.status.reason and "2 tries" in ap.status.reason
+
+
+def test_surface_end_action_stops_at_once_and_disarms() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    for k in range(1, 10):
+        out = tick(ap, k * DT)
+    assert out.propeller_rps > 0.0
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    out = tick(ap, 0.5, x=20.05, y=0.1, jump=True)
+    assert out.status.state is S.COMPLETE and ap.goals_reached == 1
+    assert out.propeller_rps == 0.0 and out.rudder_rad == 0.0 and out.stern_port_rad == 0.0
+    assert out.mode is m.ActuatorMode.SAFE and not ap.actuators_live
+    for k in range(1, 50):  # nothing drives on past the goal
+        out = tick(ap, 0.5 + k * DT, x=20.05 + 0.01 * k)
+        assert out.propeller_rps == 0.0
+
+
+def test_loiter_end_action_circles_the_last_goal_and_stays_armed() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), end_action="loiter")
+    tick(ap, 0.05)
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    out = tick(ap, 0.1, x=20.05, jump=True)
+    assert out.status.state is S.COMPLETE and ap.actuators_live
+    tick(ap, 0.15, x=20.1)
+    out = tick(ap, 0.2, x=20.15)
+    assert ap.path_kind == "loiter" and ap.path is not None and out.propeller_rps > 0.0
+    r = 2.0 * ap.config.planner.turning_radius_m
+    far = ap.path.sample(ap.path.length_m / 2.0)  # somewhere on the circle
+    assert math.isclose(math.hypot(far.x_m - 20.0, far.y_m), r, rel_tol=1e-6)
+
+
+def test_a_plan_that_misses_its_deadline_holds_with_the_reason() -> None:
+    ap = Autopilot(core(plan_deadline_s=0.2))
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
+    ap.request_autostart()
     ap.step(sensors(0.0), 0.0, DT)
-    link_bridge.apply_event(ap, api.StartMission(first_index=1))
-    assert ap.status.state is MissionState.RUNNING and ap.status.goal_index == 1
-    ap.apply(MissionEvent.HOLD)
-    link_bridge.apply_event(ap, api.StartMission())
-    assert ap.status.state is MissionState.RUNNING
+    req = ap.take_plan_request()
+    assert req is not None  # the worker never answers
+    out = ap.step(sensors(0.3), 0.3, DT)
+    assert out.status.state is S.HOLD and "deadline" in out.status.reason
+    ap.plan_done(req.request_id, compute_plan(req))  # a late answer is dropped
+    assert ap.path is None
 
 
-def test_a_parameter_that_breaks_the_configuration_is_refused_not_a_crash() -> None:
-    from onboard.adapters.mavlink import bridge as link_bridge
+def test_an_encode_fault_while_running_aborts_with_the_reason() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    ap.note_encode_fault("FIN_CMD", "rudder 0.8 out of range")
+    out = tick(ap, 0.05)
+    assert out.status.state is S.ABORT and "not encodable" in out.status.reason
 
-    ap = Autopilot(load_config().core)
+
+def test_mission_events_still_apply_directly() -> None:
+    ap = Autopilot(core())
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
+    assert ap.apply(MissionEvent.ARM).accepted
+    assert not ap.apply(MissionEvent.START).accepted  # no navigation yet
+
+
+def test_a_parameter_is_judged_by_the_core_and_the_verdict_carries_the_value_in_force() -> None:
+    from onboard.core.params import BusLimits
+    from onboard.protocol.codec import command_ranges
+
+    ap = Autopilot(core(), bus_limits=BusLimits.from_ranges(command_ranges()))
     before = ap.config
-    assert not link_bridge.apply_param(ap, "LIM_RPS_MAX", 0.0)  # max must stay above min
-    assert ap.config == before
-    assert link_bridge.apply_param(ap, "PD_KP5", -0.5)
-    assert ap.config.control.gains.Kp5 == -0.5
+    v = ap.handle(c.SetParam("LIM_RPS_MAX", 0.0))  # max must stay above min
+    assert not v.accepted and ap.config == before and v.value == before.control.limits.propeller_max_rps
+    v = ap.handle(c.SetParam("LIM_RUDDER_DEG", 45.0))  # beyond the DBC's FIN_CMD range
+    assert not v.accepted and ap.config == before
+    v = ap.handle(c.SetParam("PD_KP5", -0.5))
+    assert v.accepted and v.value == -0.5 and ap.config.control.gains.Kp5 == -0.5
+    assert not ap.handle(c.SetParam("NOPE", 1.0)).accepted

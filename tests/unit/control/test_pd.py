@@ -34,7 +34,7 @@ def ref(**errors: float) -> GuidanceReference:
         x_rate_mps=0.0, y_rate_mps=0.0, depth_rate_mps=0.0, yaw_rate_radps=0.0, pitch_rate_radps=0.0,
         speed_mps=0.0, curvature_1pm=0.0, along_track_m=0.0, cross_track_m=0.0, distance_to_end_m=0.0,
         e_along_m=0.0, e_cross_m=0.0, e_depth_m=0.0, e_yaw_rad=0.0, e_pitch_rad=0.0,
-        arrived=False, complete=False,
+        arrived=False,
     )  # fmt: skip
     base.update(errors)
     return GuidanceReference(**base)  # type: ignore[arg-type]

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from onboard.core.guidance import GuidanceParams, GuidanceState, path_frame, project, sample_extended, step
+from onboard.core.guidance import GuidanceParams, GuidanceState, path_frame, project, step
 from onboard.core.nav import nav_state_at
 from onboard.core.planner.path import ArcSegment, Path, StraightSegment
 from onboard.protocol.conventions import wrap_pi
@@ -164,26 +164,6 @@ def test_arrival_tolerance(dx_m: float, dyaw_deg: float, arrived: bool) -> None:
     if arrived:
         r2, _, _ = step(nav_state_at(0.0, 0.0, 1.0, 0.0), path, state, params, DT)
         assert r2.arrived
-
-
-def test_complete_flies_the_straight_extension_at_reduced_speed() -> None:
-    # GIVEN a path ending at (10, 5) heading east at depth 2 and a vehicle past its end
-    path = s_then_right_arc()
-    params = GuidanceParams(mode="track", speed_mps=1.0, complete_speed_mps=0.4)
-    nav = nav_state_at(15.0, 17.0, 2.0, math.pi / 2)
-    state = GuidanceState(s_ref_m=path.length_m, s_proj_m=path.length_m)
-    # WHEN guidance runs in COMPLETE for 5 s
-    for _ in range(100):
-        r, state, _ = step(nav, path, state, params, DT, complete=True)
-    # THEN the reference is on the extension beyond the vehicle's projection, heading east, at final depth,
-    # at the reduced speed
-    assert r.complete and r.speed_mps == pytest.approx(0.4)
-    assert r.x_m == pytest.approx(15.0)
-    assert r.y_m == pytest.approx(17.0 + 0.4 * 5.0)
-    assert r.yaw_rad == pytest.approx(math.pi / 2)
-    assert r.depth_m == pytest.approx(2.0) and r.depth_rate_mps == 0.0 and r.yaw_rate_radps == 0.0
-    e = sample_extended(path, path.length_m + 3.0)
-    assert (e.x_m, e.y_m, e.curvature_1pm) == pytest.approx((15.0, 18.0, 0.0))
 
 
 def test_nan_nav_gives_nan_errors_and_keeps_state() -> None:

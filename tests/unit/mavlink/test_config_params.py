@@ -1,4 +1,4 @@
-"""[mavlink] configuration, parameter table and atomic persistence."""
+"""[mavlink] configuration and atomic persistence (the parameter service: test_services.py)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import pytest
 from auv_common.config import ConfigError
 from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
 from onboard.adapters.mavlink.mission_protocol import TYPE_MISSION, MissionItem
-from onboard.adapters.mavlink.params import DEFAULT_PARAMS, ParamTable
 from onboard.adapters.mavlink.persistence import StateStore
 
 
@@ -28,7 +27,9 @@ def test_defaults_and_table() -> None:
         {"endpoints": ["udpout:127.0.0.1:0"]},
         {"gcs_loss_action": "panic"},
         {"system_id": 0},
-        {"max_depth_m": -1.0},
+        {"max_depth_m": 10.0},  # the validator owns the limits: no longer a [mavlink] key
+        {"command_timeout_s": 0.0},
+        {"validate_timeout_s": -1.0},
         {"item_timeout_s": 6.0},
         {"heartbeat_rate_hz": "fast"},
     ],
@@ -48,21 +49,6 @@ def test_signing_key_file_hex_or_raw(tmp_path: Path) -> None:
         load_signing_key(tmp_path / "bad")
 
 
-@pytest.mark.parametrize(
-    ("value", "ok"), [(0.5, True), (-10.0, True), (10.0, True), (10.01, False), (math.nan, False)]
-)
-def test_param_range_checks(value: float, ok: bool) -> None:
-    t = ParamTable()
-    assert t.check("PD_RUD_KP_Y", value) is ok
-    assert not t.check("NO_SUCH", 1.0)
-
-
-def test_param_table_ignores_out_of_range_persisted_values() -> None:
-    t = ParamTable(DEFAULT_PARAMS, {"PD_RUD_KP_Y": 99.0, "LIM_RPS": 30.0, "GONE": 1.0})
-    assert t.get("PD_RUD_KP_Y") == 0.1 and t.get("LIM_RPS") == 30.0
-    assert all(len(s.name) <= 16 for s in DEFAULT_PARAMS)
-
-
 def test_state_store_round_trip_with_nan(tmp_path: Path) -> None:
     s = StateStore(tmp_path / "state")
     items = (MissionItem(1, 16, 0.0, math.nan, 0.0, math.nan, 10000, -20000, 3.0),)
@@ -74,14 +60,3 @@ def test_state_store_round_trip_with_nan(tmp_path: Path) -> None:
     assert not list((tmp_path / "state").glob(".*tmp"))
     (tmp_path / "state" / "fence.json").write_text("{broken")
     assert s.load_plan(1) is None
-
-
-def test_only_values_away_from_their_defaults_are_persisted() -> None:
-    from onboard.adapters.mavlink.params import ParamSpec, ParamTable
-
-    table = ParamTable((ParamSpec("A", 1.0, 0.0, 2.0, "", "a"), ParamSpec("B", 0.5, 0.0, 2.0, "", "b")))
-    assert table.changed() == {}
-    table.set("A", 1.5)
-    assert table.changed() == {"A": 1.5}
-    table.set("A", 1.0)  # back to the default: nothing to persist
-    assert table.changed() == {}

@@ -9,10 +9,7 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from onboard.adapters.mavlink import api
 from onboard.adapters.mavlink.api import VehicleSnapshot
-from onboard.adapters.mavlink.config import MavlinkConfig
-from onboard.adapters.mavlink.endpoint import VehicleLink
 from onboard.adapters.mavlink.mission_protocol import (
     TYPE_FENCE,
     TYPE_MISSION,
@@ -27,7 +24,10 @@ from onboard.adapters.mavlink.mission_protocol import (
     seq_of_goal,
 )
 from onboard.adapters.mavlink.persistence import StateStore
+from onboard.core import commands as core
+from onboard.core.mission.state import MissionState
 
+from .linkkit import Captured
 from .test_mission_protocol import GCS, LIMITS, count_msg, item_msg, only, upload, wp
 
 ACCEPTED = mavlink.MAV_MISSION_ACCEPTED
@@ -57,18 +57,17 @@ def rel(north_m: float, east_m: float, depth_m: float) -> MissionItem:
 def test_home_at_seq0_is_accepted_without_area_or_depth_check(frame: int) -> None:
     # GIVEN MAVProxy's home line (lat/lon 0/0, thousands of km from the origin; AMSL altitude 584 m)
     h = home(frame, z=584.0)
-    # THEN at seq 0 it is the home placeholder and accepted, anywhere else it is a goal out of the area
+    # THEN at seq 0 it is the home placeholder and accepted, anywhere else it is a goal (well formed: the
+    # validator refuses it for its position)
     assert is_home_item(h, 0) and check_item(h, TYPE_MISSION, LIMITS, seq=0) == ACCEPTED
-    assert check_item(h, TYPE_MISSION, LIMITS, seq=1) == mavlink.MAV_MISSION_INVALID_PARAM5_X
-    assert check_item(h, TYPE_MISSION, LIMITS) == mavlink.MAV_MISSION_INVALID_PARAM5_X  # no seq: a goal
+    assert not is_home_item(h, 1)
     assert check_item(home(frame, lat=-89.9, lon=179.9), TYPE_MISSION, LIMITS, seq=0) == ACCEPTED
     assert check_item(home(frame, param1=math.nan, param4=math.nan), TYPE_MISSION, LIMITS, seq=0) == ACCEPTED
 
 
 def test_only_absolute_global_waypoints_of_the_mission_type_are_home() -> None:
     for frame in (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
-        assert not is_home_item(home(frame), 0)
-        assert check_item(home(frame), TYPE_MISSION, LIMITS, seq=0) == mavlink.MAV_MISSION_INVALID_PARAM5_X
+        assert not is_home_item(home(frame), 0)  # a goal
     assert not is_home_item(wp(), 0)  # our ground station's local-frame goals are never home
     loiter = home(command=mavlink.MAV_CMD_NAV_LOITER_UNLIM)
     assert not is_home_item(loiter, 0)
@@ -131,10 +130,11 @@ def test_goal_of_seq(seq: int, offset: int, n: int, goal: int | None) -> None:
 # ---- server and persistence --------------------------------------------------------------------
 def test_upload_with_home_stores_all_items_and_downloads_them_unchanged(tmp_path: Path) -> None:
     store = StateStore(tmp_path)
-    srv = MissionServer(LIMITS, commit=store.save_plan)
+    srv = MissionServer(LIMITS)
     items = [home(z=584.0), rel(10.0, 0.0, 1.0), rel(10.0, 10.0, 2.0)]
     ack = only(upload(srv, items))
     assert ack.type == ACCEPTED and srv.items(TYPE_MISSION) == tuple(items)
+    store.save_plan(TYPE_MISSION, srv.items(TYPE_MISSION))
     assert srv.goal_count() == 2 and srv.home_offset() == 1 and len(srv.mission().goals) == 2
     down = mavlink.MAVLink_mission_request_int_message(1, 1, 0, TYPE_MISSION)
     r = only(srv.handle(down, GCS, 0.0))
@@ -153,102 +153,80 @@ def test_home_only_upload_is_zero_goals_like_a_clear() -> None:
     assert srv.items(TYPE_MISSION) == (home(),)
 
 
-def test_home_at_a_later_seq_is_a_goal_and_rejected() -> None:
+def test_home_at_a_later_seq_is_a_goal_for_the_validator() -> None:
     srv = MissionServer(LIMITS)
     assert only(srv.handle(count_msg(2), GCS, 0.0)).seq == 0
     assert only(srv.handle(item_msg(0, rel(1, 1, 1)), GCS, 0.0)).seq == 1
-    ack = only(srv.handle(item_msg(1, home()), GCS, 0.0))
-    assert ack.type == mavlink.MAV_MISSION_INVALID_PARAM5_X
+    assert srv.handle(item_msg(1, home()), GCS, 0.0) == []
+    c = srv.take_candidate()
+    assert c is not None
+    far = srv.candidate_mission(c).goals[1]  # lat/lon 0/0: thousands of km away, the validator refuses it
+    assert abs(far.x_m) > 1e6
 
 
-# ---- endpoint: seq <-> goal index (no sockets) ---------------------------------------------------
-class Link(VehicleLink):
-    """The endpoint with its output captured instead of sent."""
-
-    def __init__(self, state_dir: Path, items: tuple[MissionItem, ...]) -> None:
-        StateStore(state_dir).save_plan(TYPE_MISSION, items)
-        super().__init__(MavlinkConfig(state_dir=str(state_dir)))  # type: ignore[arg-type]
-        self.out: list[mavlink.MAVLink_message] = []
-        self.take_events()
-
-    def send(self, msg: mavlink.MAVLink_message) -> None:
-        self.out.append(msg)
-
-    def sent(self, kind: str) -> list[mavlink.MAVLink_message]:
-        got = [m for m in self.out if m.get_type() == kind]
-        self.out.clear()
-        return got
-
-    def wire(self, msg: mavlink.MAVLink_message) -> mavlink.MAVLink_message:
-        """``msg`` as received from the ground station GCS (encoded and decoded)."""
-        mav = mavlink.MAVLink(None, *GCS)
-        return mav.decode(bytearray(msg.pack(mav)))
-
-    def command(self, cmd: int, *p: float) -> int:
-        return self._command(cmd, [*map(float, p), *([0.0] * (7 - len(p)))])
-
-
+# ---- the link: seq <-> goal index (no sockets) --------------------------------------------------
 GOALS3 = (rel(10.0, 0.0, 1.0), rel(20.0, 0.0, 1.0), rel(30.0, 0.0, 1.0))
 
 
+def accept_all(cmd: core.Command) -> core.Verdict:
+    return core.accepted("ok")
+
+
 @pytest.mark.parametrize("with_home", [True, False])
-def test_endpoint_maps_goal_indices_to_seq(tmp_path: Path, with_home: bool) -> None:
+def test_link_maps_goal_indices_to_seq(tmp_path: Path, with_home: bool) -> None:
     off = 1 if with_home else 0
-    link = Link(tmp_path, ((home(),) if with_home else ()) + GOALS3)
+    c = Captured(tmp_path, items=((home(),) if with_home else ()) + GOALS3)
+    link = c.link
     # MISSION_CURRENT: seq = goal index + offset, total = goals only
-    link.publish(VehicleSnapshot(state="RUNNING", current_goal=0))
-    link._send_message(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
-    (cur,) = link.sent("MISSION_CURRENT")
+    link.publish(VehicleSnapshot(state=MissionState.RUNNING, current_goal=0))
+    link.telemetry.send_message(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+    (cur,) = c.sent("MISSION_CURRENT")
     assert (cur.seq, cur.total, cur.mission_state) == (off, 3, mavlink.MISSION_STATE_ACTIVE)
     # MISSION_ITEM_REACHED: the seq of the reached goal(s)
-    link.publish(VehicleSnapshot(state="RUNNING", current_goal=2, goals_reached=2))
-    link._timers(link._clock())
-    assert [m.seq for m in link.sent("MISSION_ITEM_REACHED")] == [off, off + 1]
+    link.publish(VehicleSnapshot(state=MissionState.RUNNING, current_goal=2, goals_reached=2))
+    c.poll()
+    assert [m.seq for m in c.sent("MISSION_ITEM_REACHED")] == [off, off + 1]
+    c.out.clear()
     # MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT: seq -> goal index (home seq 0 -> goal 0)
-    link._set_current(2)
-    assert link.take_events() == [api.SetCurrent(2 - off)]
-    assert [m.seq for m in link.sent("MISSION_CURRENT")] == [2]
-    assert link.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 0) == mavlink.MAV_RESULT_ACCEPTED
-    assert link.take_events() == [api.SetCurrent(0)]
-    assert [m.seq for m in link.sent("MISSION_CURRENT")] == [off]  # the goal actually selected
+    c.rx(mavlink.MAVLink_mission_set_current_message(1, 1, 2))
+    assert [r.command for r in link.take_requests()] == [core.SetCurrent(2 - off, "MAVLink 255/190")]
+    c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 0)
+    (req,) = link.take_requests()
+    assert req.command == core.SetCurrent(0, "MAVLink 255/190")
+    c.poll()
+    c.out.clear()
+    link.answer(req.id, core.accepted("current goal 0"))
+    c.poll()
+    assert c.ack() == mavlink.MAV_RESULT_ACCEPTED
+    assert [m.seq for m in c.sent("MISSION_CURRENT")] == [off]  # the goal actually selected
     last = 3 + off  # one past the last item
-    assert link.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, last) == mavlink.MAV_RESULT_DENIED
-    assert link.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, last - 1) == mavlink.MAV_RESULT_ACCEPTED
-    assert link.take_events() == [api.SetCurrent(2)]
-    # MISSION_START first_item is a seq too
-    link.publish(VehicleSnapshot(state="ARMED"))
-    assert link.command(mavlink.MAV_CMD_MISSION_START, 2) == mavlink.MAV_RESULT_ACCEPTED
-    assert link.take_events() == [api.StartMission(2 - off)]
-    link.publish(VehicleSnapshot(state="ARMED"))
-    assert link.command(mavlink.MAV_CMD_MISSION_START, 0) == mavlink.MAV_RESULT_ACCEPTED
-    assert link.take_events() == [api.StartMission(0)]
+    c.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, last)
+    assert c.ack() == mavlink.MAV_RESULT_DENIED and link.take_requests() == []
+    assert c.texts() == [f"no mission item {last} (the mission has {last} items)"]
+    # MISSION_START first_item is a seq too; <= 0 is the current goal (None)
+    for first, goal in ((2, 2 - off), (0, None)):
+        c.command(mavlink.MAV_CMD_MISSION_START, first)
+        (req,) = link.take_requests()
+        assert req.command == core.Start(goal, "MAVLink 255/190")
+        link.answer(req.id, core.accepted("started"))
+        c.poll()
+        assert c.ack() == mavlink.MAV_RESULT_ACCEPTED
 
 
-def test_endpoint_home_only_mission_is_refused_while_running_and_blocks_start(tmp_path: Path) -> None:
-    link = Link(tmp_path, GOALS3)
-    items = [home()]
-
-    def up() -> int:
-        for msg in (count_msg(1), item_msg(0, items[0])):
-            link._dispatch(link.wire(msg), 0.0)
-        (ack,) = link.sent("MISSION_ACK")
-        return int(ack.type)
-
-    # WHEN RUNNING THEN a plan without goals is refused (the state machine could not take it)
-    link.publish(VehicleSnapshot(state="RUNNING"))
-    assert up() == mavlink.MAV_MISSION_ERROR and link.missions.goal_count() == 3
-    assert link.take_events() == []
-    # WHEN HOLD THEN it is accepted like a clear, and resuming without goals is denied
-    link.publish(VehicleSnapshot(state="HOLD"))
-    assert up() == ACCEPTED and link.missions.goal_count() == 0
-    (ev,) = link.take_events()
-    assert isinstance(ev, api.MissionReplaced) and ev.mission.goals == ()
-    assert link.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1) == mavlink.MAV_RESULT_DENIED
-    link.publish(VehicleSnapshot(state="ARMED"))
-    assert link.command(mavlink.MAV_CMD_MISSION_START, 0) == mavlink.MAV_RESULT_DENIED
-    link._send_message(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
-    (cur,) = link.sent("MISSION_CURRENT")
+def test_link_home_only_mission_is_a_clear_handed_to_the_core(tmp_path: Path) -> None:
+    c = Captured(tmp_path, items=GOALS3)
+    c.upload([home()])
+    c.settle()
+    (req,) = c.link.take_requests()
+    assert isinstance(req.command, core.ReplaceMission) and req.command.mission.goals == ()
+    assert req.command.goals_changed and c.link.mission().goals != ()  # nothing changes before the core
+    c.link.answer(req.id, core.accepted("mission replaced (0 goals)"))
+    c.poll()
+    assert c.mission_ack() == ACCEPTED and c.link.missions.shape() == (1, 0)
+    c.out.clear()
+    c.link.telemetry.send_message(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+    (cur,) = c.sent("MISSION_CURRENT")
     assert cur.total == 0 and cur.mission_state == mavlink.MISSION_STATE_NO_MISSION
-    # a restart reloads the home-only plan: no goals, no MissionReplaced
-    again = Link(tmp_path / "again", tuple(items))
-    assert again.missions.items(TYPE_MISSION) == (home(),) and again.mission().goals == ()
+    # a restart reloads the home-only plan: no goals
+    again = Captured(tmp_path)
+    assert again.link.missions.server.items(TYPE_MISSION) == (home(),) and again.link.mission().goals == ()

@@ -1,4 +1,4 @@
-"""Mission micro-service state machine: upload/download/clear, every error code, timers, re-sent last item."""
+"""Mission micro-service state machine: upload/download/clear, format codes, judging, timers, re-sent item."""
 
 from __future__ import annotations
 
@@ -47,10 +47,28 @@ def count_msg(n: int, mt: int = TYPE_MISSION) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_mission_count_message(1, 1, n, mt)
 
 
-def upload(srv: MissionServer, items: list[MissionItem], mt: int = TYPE_MISSION, t: float = 0.0) -> list:
-    out = srv.handle(count_msg(len(items), mt), GCS, t)
+ACCEPTED = mavlink.MAV_MISSION_ACCEPTED
+
+
+def judged(srv: MissionServer, out: list, result: int) -> list:
+    """``out``, or the final ACK with ``result`` when the transfer is waiting for its judgement."""
+    if srv.take_candidate() is not None:
+        assert out == []
+        return srv.finish(result)
+    return out
+
+
+def upload(
+    srv: MissionServer,
+    items: list[MissionItem],
+    mt: int = TYPE_MISSION,
+    t: float = 0.0,
+    result: int = ACCEPTED,
+) -> list:
+    """Upload ``items``; a complete transfer is judged ``result`` (what the mission service decides)."""
+    out = judged(srv, srv.handle(count_msg(len(items), mt), GCS, t), result)
     for i, it in enumerate(items):
-        out = srv.handle(item_msg(i, it, mt), GCS, t)
+        out = judged(srv, srv.handle(item_msg(i, it, mt), GCS, t), result)
         if out and out[0].get_type() == "MISSION_ACK":
             break
     return out
@@ -69,8 +87,15 @@ def test_upload_round_trip_requests_each_item_and_acks_accepted() -> None:
     assert (
         r.get_type() == "MISSION_REQUEST_INT" and r.seq == 0 and (r.target_system, r.target_component) == GCS
     )
-    for i, it in enumerate(items):
+    for i, it in enumerate(items[:-1]):
         r = only(srv.handle(item_msg(i, it), GCS, 0.0))
+        assert r.get_type() == "MISSION_REQUEST_INT" and r.seq == i + 1
+    # THEN the last item leaves the transfer judging: no ACK until finish(), the stored plan unchanged
+    assert srv.handle(item_msg(2, items[2]), GCS, 0.0) == [] and srv.judging and srv.mission().goals == ()
+    candidate = srv.take_candidate()
+    assert candidate is not None and candidate.plans == {TYPE_MISSION: tuple(items)}
+    assert srv.take_candidate() is None  # taken once
+    r = only(srv.finish(ACCEPTED))
     assert r.get_type() == "MISSION_ACK" and r.type == mavlink.MAV_MISSION_ACCEPTED
     assert srv.take_changed()
     goals = srv.mission().goals
@@ -93,25 +118,24 @@ def test_download_is_stateless_and_answers_legacy_request_with_item_int() -> Non
 @pytest.mark.parametrize(
     ("item", "code"),
     [
-        (wp(yaw_deg=361.0), mavlink.MAV_MISSION_INVALID_PARAM4),
-        (wp(yaw_deg=-360.0), mavlink.MAV_MISSION_ACCEPTED),
+        # format only: the limits (yaw range, area, depth, hold time) are the validator's
+        (wp(yaw_deg=361.0), ACCEPTED),
         (wp(yaw_deg=math.inf), mavlink.MAV_MISSION_INVALID_PARAM4),
-        (wp(x_m=500.1), mavlink.MAV_MISSION_INVALID_PARAM5_X),
-        (wp(x_m=-500.0), mavlink.MAV_MISSION_ACCEPTED),
-        (wp(y_m=-501.0), mavlink.MAV_MISSION_INVALID_PARAM6_Y),
-        (wp(depth_m=-0.1), mavlink.MAV_MISSION_INVALID_PARAM7),
-        (wp(depth_m=100.5), mavlink.MAV_MISSION_INVALID_PARAM7),
-        (wp(depth_m=math.nan), mavlink.MAV_MISSION_INVALID_PARAM7),
-        (wp(param1=-1.0), mavlink.MAV_MISSION_INVALID_PARAM1),
-        (wp(param2=-1.0), mavlink.MAV_MISSION_INVALID_PARAM2),
+        (wp(x_m=500.1), ACCEPTED),
+        (wp(depth_m=-0.1), ACCEPTED),
+        (wp(depth_m=math.nan), ACCEPTED),
+        (wp(depth_m=math.inf), mavlink.MAV_MISSION_INVALID_PARAM7),
+        (wp(param1=-1.0), ACCEPTED),
+        (wp(param1=-math.inf), mavlink.MAV_MISSION_INVALID_PARAM1),
+        (wp(param2=math.inf), mavlink.MAV_MISSION_INVALID_PARAM2),
         (wp(param3=math.inf), mavlink.MAV_MISSION_INVALID_PARAM3),
         (wp(command=mavlink.MAV_CMD_NAV_LOITER_UNLIM), mavlink.MAV_MISSION_UNSUPPORTED),
         (wp(frame=mavlink.MAV_FRAME_BODY_NED), mavlink.MAV_MISSION_UNSUPPORTED_FRAME),
-        # MAVProxy/QGC scale local x/y by 1e7: 10 m arrives as 10,000 m and is refused, loudly
-        (wp(x=10 * 10**7), mavlink.MAV_MISSION_INVALID_PARAM5_X),
+        (wp(frame=mavlink.MAV_FRAME_GLOBAL_INT, x=900_000_001, y=0), mavlink.MAV_MISSION_INVALID_PARAM5_X),
+        (wp(frame=mavlink.MAV_FRAME_GLOBAL_INT, x=0, y=1_800_000_001), mavlink.MAV_MISSION_INVALID_PARAM6_Y),
     ],
 )
-def test_field_checks_each_item(item: MissionItem, code: int) -> None:
+def test_format_checks_each_item(item: MissionItem, code: int) -> None:
     assert check_item(item, TYPE_MISSION, LIMITS) == code
     srv = MissionServer(LIMITS)
     upload(srv, [wp()])
@@ -129,8 +153,8 @@ def test_global_frames_convert_about_origin_with_depth_minus_altitude() -> None:
     x_m, y_m, depth_m = item_position(it, LIMITS)
     assert x_m == pytest.approx(100.0, abs=0.05) and y_m == pytest.approx(0.0, abs=0.01) and depth_m == 12.0
     assert check_item(it, TYPE_MISSION, LIMITS) == mavlink.MAV_MISSION_ACCEPTED
-    above = wp(frame=mavlink.MAV_FRAME_GLOBAL_INT, x=lat, y=lon, z=5.0)
-    assert check_item(above, TYPE_MISSION, LIMITS) == mavlink.MAV_MISSION_INVALID_PARAM7
+    above = wp(frame=mavlink.MAV_FRAME_GLOBAL_INT, x=lat, y=lon, z=5.0)  # AMSL 5 m: depth -5 (validator's)
+    assert item_position(above, LIMITS)[2] == -5.0
     assert goal_from_item(it, LIMITS).depth_m == 12.0
 
 
@@ -140,32 +164,34 @@ def test_legacy_mission_item_understood() -> None:
     legacy = mavlink.MAVLink_mission_item_message(
         1, 1, 0, mavlink.MAV_FRAME_LOCAL_NED, 16, 0, 1, 0.0, 0.0, 0.0, 30.0, 12.5, -3.25, 4.0, TYPE_MISSION
     )
-    assert only(srv.handle(legacy, GCS, 0.0)).type == mavlink.MAV_MISSION_ACCEPTED
+    assert only(judged(srv, srv.handle(legacy, GCS, 0.0), ACCEPTED)).type == mavlink.MAV_MISSION_ACCEPTED
     g = srv.mission().goals[0]
     assert (g.x_m, g.y_m, g.depth_m) == (12.5, -3.25, 4.0)
 
 
-def test_fence_upload_gives_obstacles_and_checks_radius() -> None:
+def test_fence_upload_gives_obstacles_and_checks_radius_format() -> None:
     srv = MissionServer(LIMITS)
     circle = wp(command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=3.0, x=50000, y=0, z=0.0)
     assert only(upload(srv, [circle], TYPE_FENCE)).type == mavlink.MAV_MISSION_ACCEPTED
     (o,) = srv.mission().obstacles
     assert (o.x_m, o.y_m, o.radius_m) == (5.0, 0.0, 3.0)
-    bad = wp(command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=0.0)
+    bad = wp(command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=math.inf)
     assert only(upload(srv, [bad], TYPE_FENCE)).type == mavlink.MAV_MISSION_INVALID_PARAM1
     poly = wp(command=mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, param1=4.0)
     assert only(upload(srv, [poly], TYPE_FENCE)).type == mavlink.MAV_MISSION_UNSUPPORTED
     assert len(srv.mission().obstacles) == 1
 
 
-def test_no_space_unsupported_type_and_count_zero_clears() -> None:
-    srv = MissionServer(MissionLimits(max_goals=3))
-    assert only(srv.handle(count_msg(4), GCS, 0.0)).type == mavlink.MAV_MISSION_NO_SPACE
+def test_unsupported_type_and_count_zero_clears_after_judging() -> None:
+    srv = MissionServer(LIMITS)
     assert only(srv.handle(count_msg(1, mavlink.MAV_MISSION_TYPE_RALLY), GCS, 0.0)).type == (
         mavlink.MAV_MISSION_UNSUPPORTED
     )
     upload(srv, [wp()])
-    assert only(srv.handle(count_msg(0), GCS, 0.0)).type == mavlink.MAV_MISSION_ACCEPTED
+    assert srv.handle(count_msg(0), GCS, 0.0) == []
+    c = srv.take_candidate()
+    assert c is not None and c.plans == {TYPE_MISSION: ()} and c.mission_type == TYPE_MISSION
+    assert only(srv.finish(ACCEPTED)).type == mavlink.MAV_MISSION_ACCEPTED
     assert srv.items(TYPE_MISSION) == ()
 
 
@@ -231,23 +257,45 @@ def test_repeated_count_before_first_item_rerequests_item_zero() -> None:
     assert only(srv.handle(count_msg(2), GCS, 0.1)).seq == 0
 
 
-def test_commit_failure_answers_error_and_keeps_old_plan() -> None:
-    def boom(mt: int, items: tuple[MissionItem, ...]) -> None:
-        raise OSError("disk full")
+def test_refused_judgement_answers_its_code_and_keeps_old_plan() -> None:
+    srv = MissionServer(LIMITS, stored={TYPE_MISSION: (wp(1, 1, 1),)})
+    for code in (mavlink.MAV_MISSION_ERROR, mavlink.MAV_MISSION_INVALID_PARAM5_X):
+        assert only(upload(srv, [wp(2, 2, 2)], result=code)).type == code
+        assert [g.x_m for g in srv.mission().goals] == [1.0] and not srv.take_changed()
+    assert srv.stats.uploads_rejected == 2 and not srv.upload_in_progress
 
-    srv = MissionServer(LIMITS, stored={TYPE_MISSION: (wp(1, 1, 1),)}, commit=boom)
-    assert only(upload(srv, [wp(2, 2, 2)])).type == mavlink.MAV_MISSION_ERROR
-    assert [g.x_m for g in srv.mission().goals] == [1.0]
+
+def test_while_judging_resent_final_item_ignored_others_denied_then_one_final_ack() -> None:
+    srv = MissionServer(LIMITS)
+    items = [wp(1, 1, 1), wp(2, 2, 2)]
+    srv.handle(count_msg(2), GCS, 0.0)
+    srv.handle(item_msg(0, items[0]), GCS, 0.0)
+    assert srv.handle(item_msg(1, items[1]), GCS, 0.0) == []
+    assert srv.handle(item_msg(1, items[1]), GCS, 0.3) == []  # the GCS re-sends: still judging
+    assert only(srv.handle(count_msg(1), OTHER, 0.3)).type == mavlink.MAV_MISSION_DENIED
+    assert only(srv.handle(count_msg(1), GCS, 0.3)).type == mavlink.MAV_MISSION_DENIED  # busy
+    clr = mavlink.MAVLink_mission_clear_all_message(1, 1, TYPE_MISSION)
+    assert only(srv.handle(clr, GCS, 0.3)).type == mavlink.MAV_MISSION_DENIED
+    assert srv.poll(100.0) == []  # no re-request or cancel while judging
+    assert srv.take_candidate() is not None
+    assert only(srv.finish(ACCEPTED)).type == mavlink.MAV_MISSION_ACCEPTED
+    assert only(srv.handle(item_msg(1, items[1]), GCS, 1.0)).type == mavlink.MAV_MISSION_ACCEPTED  # lost ACK
+    assert srv.finish(ACCEPTED) == []  # nothing to finish
 
 
 def test_clear_all_clears_mission_and_fence() -> None:
     srv = MissionServer(LIMITS)
     upload(srv, [wp()])
     upload(srv, [wp(command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=1.0)], TYPE_FENCE)
-    ack = only(
+    assert (
         srv.handle(mavlink.MAVLink_mission_clear_all_message(1, 1, mavlink.MAV_MISSION_TYPE_ALL), GCS, 0)
+        == []
     )
-    assert ack.type == mavlink.MAV_MISSION_ACCEPTED
+    c = srv.take_candidate()  # one candidate for both: goals and fence are one unit
+    assert c is not None and c.plans == {TYPE_MISSION: (), TYPE_FENCE: ()}
+    assert c.mission_type == mavlink.MAV_MISSION_TYPE_ALL
+    ack = only(srv.finish(ACCEPTED))
+    assert ack.type == mavlink.MAV_MISSION_ACCEPTED and ack.mission_type == mavlink.MAV_MISSION_TYPE_ALL
     assert srv.mission().goals == () and srv.mission().obstacles == ()
 
 
@@ -277,9 +325,7 @@ def test_random_items_never_crash_and_change_plan_only_when_valid(frame, command
     goals = srv.mission().goals
     if expected == mavlink.MAV_MISSION_ACCEPTED and is_home_item(it, 0):
         assert goals == () and srv.items(TYPE_MISSION) == (it,)  # a lone home item: no goals
-    elif expected == mavlink.MAV_MISSION_ACCEPTED:
-        (g,) = goals
-        g.validate()
-        assert abs(g.x_m) <= 500 and abs(g.y_m) <= 500 and 0 <= g.depth_m <= 100
+    elif expected == mavlink.MAV_MISSION_ACCEPTED:  # format only here: the validator judges the values
+        assert len(goals) == 1 and srv.items(TYPE_MISSION) == (it,)
     else:
         assert [g.x_m for g in goals] == [1.0]

@@ -15,6 +15,7 @@ ACCEPTED = [
     (S.IDLE, E.MISSION_REPLACED, S.IDLE),
     (S.ARMED, E.START, S.RUNNING),
     (S.ARMED, E.DISARM, S.IDLE),
+    (S.ARMED, E.DISARM_FORCED, S.IDLE),
     (S.ARMED, E.ABORT, S.ABORT),
     (S.ARMED, E.FAILSAFE, S.ABORT),
     (S.ARMED, E.MISSION_REPLACED, S.ARMED),
@@ -22,17 +23,23 @@ ACCEPTED = [
     (S.RUNNING, E.ABORT, S.ABORT),
     (S.RUNNING, E.FAILSAFE, S.ABORT),
     (S.RUNNING, E.GOAL_REACHED, S.RUNNING),
-    (S.RUNNING, E.MISSION_REPLACED, S.RUNNING),
+    (S.RUNNING, E.MISSION_REPLACED, S.HOLD),  # a new mission needs an explicit START
+    (S.RUNNING, E.DISARM_FORCED, S.IDLE),
     (S.HOLD, E.RESUME, S.RUNNING),
+    (S.HOLD, E.START, S.RUNNING),
     (S.HOLD, E.DISARM, S.IDLE),
+    (S.HOLD, E.DISARM_FORCED, S.IDLE),
     (S.HOLD, E.ABORT, S.ABORT),
     (S.HOLD, E.FAILSAFE, S.ABORT),
     (S.HOLD, E.MISSION_REPLACED, S.HOLD),
+    (S.COMPLETE, E.ARM, S.ARMED),
     (S.COMPLETE, E.DISARM, S.IDLE),
+    (S.COMPLETE, E.DISARM_FORCED, S.IDLE),
     (S.COMPLETE, E.ABORT, S.ABORT),
     (S.COMPLETE, E.FAILSAFE, S.ABORT),
-    (S.COMPLETE, E.MISSION_REPLACED, S.ARMED),
+    (S.COMPLETE, E.MISSION_REPLACED, S.IDLE),  # surfaced: stays disarmed
     (S.ABORT, E.DISARM, S.IDLE),
+    (S.ABORT, E.DISARM_FORCED, S.IDLE),
     (S.ABORT, E.MISSION_REPLACED, S.ABORT),
 ]
 ACCEPTED_PAIRS = {(a, e) for a, e, _ in ACCEPTED}
@@ -55,7 +62,7 @@ def test_rejected_transitions_leave_the_status_unchanged(state: MissionState, ev
     status = MissionStatus(state, 1, 3, "before")
     tr = transition(status, event, goal_count=3)
     assert not tr.accepted and tr.status == status
-    assert event.value in tr.reason and state.value in tr.reason
+    assert event.value in tr.reason and state.name in tr.reason
 
 
 def test_goals_advance_then_complete_after_the_last() -> None:
@@ -88,7 +95,28 @@ def test_mission_replaced_restarts_at_goal_zero(state: MissionState) -> None:
 
 def test_mission_replaced_needs_a_goal_count() -> None:
     assert not transition(MissionStatus(S.IDLE), E.MISSION_REPLACED).accepted
-    assert not transition(MissionStatus(S.RUNNING, 0, 2), E.MISSION_REPLACED, goal_count=0).accepted
+
+
+def test_an_empty_mission_while_running_holds() -> None:
+    tr = transition(MissionStatus(S.RUNNING, 1, 2), E.MISSION_REPLACED, goal_count=0)
+    assert tr.accepted and tr.status.state is S.HOLD and "START" in tr.reason
+
+
+def test_a_new_mission_keeps_a_loitering_vehicle_armed() -> None:
+    tr = transition(MissionStatus(S.COMPLETE, 2, 2), E.MISSION_REPLACED, goal_count=3, complete_armed=True)
+    assert tr.status.state is S.ARMED
+
+
+def test_start_begins_at_the_current_goal_or_the_one_given() -> None:
+    armed = MissionStatus(S.ARMED, 2, 4)
+    assert transition(armed, E.START).status.goal_index == 2
+    assert transition(armed, E.START, goal_index=0).status.goal_index == 0
+    assert not transition(armed, E.START, goal_index=4).accepted
+
+
+def test_arm_after_complete_flies_the_mission_again() -> None:
+    tr = transition(MissionStatus(S.COMPLETE, 3, 3), E.ARM)
+    assert tr.status.state is S.ARMED and tr.status.goal_index == 0
 
 
 def test_resume_keeps_the_goal_index() -> None:

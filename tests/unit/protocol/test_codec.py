@@ -218,3 +218,31 @@ def _fast_decode_for(frame_id: int, data: bytes) -> dict[str, typing.Any]:
     layout = CODEC._layouts[frame_id]
     assert layout is not None, "every message of this DBC takes the fast path"
     return _fast_decode(layout, data)
+
+
+def test_an_encode_failure_does_not_use_up_an_alive_counter_value() -> None:
+    # GIVEN a stream of good frames WHEN one message fails to encode in the middle THEN the next good frame
+    # carries the next counter: the receiver accepts every frame, with no "jumping_counter" rejection.
+    sender = FrameSender(CODEC)
+    rx = FrameReceiver(CODEC)
+    fid = CODEC.frame_id(FinCmd)
+    for _ in range(3):
+        assert rx.receive(*sender.encode(FinCmd(0.1, 0.0, 0.0)), 0.0) is not None
+    before = sender.counters.peek(fid)
+    with pytest.raises(EncodeError) as err:
+        sender.encode(FinCmd(math.radians(45.0), 0.0, 0.0))
+    assert (err.value.message_name, err.value.signal) == ("FIN_CMD", "rudder_rad")
+    assert sender.counters.peek(fid) == before
+    for _ in range(20):  # across the wrap too
+        assert rx.receive(*sender.encode(FinCmd(0.1, 0.0, 0.0)), 0.0) is not None
+    assert rx.rejected_total == 0 and rx.accepted == 23
+
+
+def test_an_uncommitted_frame_keeps_its_counter_for_the_next_one() -> None:
+    # a frame the bus refused (encode(commit=False) without commit) is encoded again with the same counter
+    sender = FrameSender(CODEC)
+    fid, first = sender.encode(FinCmd(0.1, 0.0, 0.0), commit=False)
+    again = sender.encode(FinCmd(0.1, 0.0, 0.0), commit=False)
+    assert again == (fid, first)
+    sender.commit(fid)
+    assert sender.counters.peek(fid) == 1

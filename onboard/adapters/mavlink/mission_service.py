@@ -1,0 +1,294 @@
+"""The mission service: the pure protocol (:class:`MissionServer`), the validator, the core, the store.
+
+A complete transfer (the last item of an upload, MISSION_COUNT 0, MISSION_CLEAR_ALL) goes through:
+
+1. the candidate :class:`~onboard.core.mission.model.Mission`: the new items plus the stored plan of the
+   OTHER type (goals and fence are one unit; a clear of MAV_MISSION_TYPE_ALL clears both, one candidate);
+2. the validator given to the link (``Callable[[Mission], MissionCheck]``, normally
+   :func:`onboard.core.mission.validate.check_mission` bound to the configuration) in a worker thread,
+   with the deadline ``validate_timeout_s``; a problem ends the transfer with the MAV_MISSION code of its
+   field (:data:`FIELD_CODES`) and a STATUSTEXT naming the item and the reason;
+3. ``ReplaceMission(mission, goals_changed)`` as a request to the loop: the core's verdict;
+4. only when the core accepted: the items are persisted through the store, the stored plans replaced and
+   MISSION_ACK ACCEPTED sent. Any refusal leaves the stored plans as they were (MAV_MISSION_ERROR and a
+   STATUSTEXT with the core's reason).
+
+Mission seq vs goal index: the core counts goals 0..n-1. When the stored mission starts with an
+ArduPilot-style home item (seq 0, see :mod:`onboard.adapters.mavlink.mission_protocol`), MAVLink seq = goal
+index + 1 everywhere; :meth:`MissionService.shape` gives (home offset, number of goals).
+
+Progress: the current goal of the snapshot is persisted (``StateStore.save_progress``) whenever it changes,
+tied to the stored MISSION plan; :meth:`MissionService.progress` returns the persisted one at boot.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import logging
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.adapters.mavlink.api import VehicleSnapshot
+from onboard.adapters.mavlink.commands import RequestQueue
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.mission_protocol import (
+    TYPE_ALL,
+    TYPE_FENCE,
+    TYPE_MISSION,
+    Candidate,
+    MissionItem,
+    MissionLimits,
+    MissionServer,
+    home_offset,
+    items_from_mission,
+)
+from onboard.adapters.mavlink.persistence import StateStore, mission_key
+from onboard.adapters.mavlink.transport import Sender, Transport
+from onboard.core import commands as core
+from onboard.core.commands import Severity, Verdict
+from onboard.core.mission.model import Mission
+
+log = logging.getLogger(__name__)
+
+
+class ProblemLike(Protocol):
+    """One problem of :class:`onboard.core.mission.validate.MissionCheck`."""
+
+    @property
+    def item(self) -> str: ...  # "goal" | "obstacle" | "mission"
+    @property
+    def index(self) -> int: ...
+    @property
+    def field(self) -> str: ...  # x, y, depth, yaw, radius, count, plan, format
+    @property
+    def reason(self) -> str: ...
+
+
+class CheckLike(Protocol):
+    @property
+    def problems(self) -> Sequence[ProblemLike]: ...
+
+
+Validator = Callable[[Mission], CheckLike]
+
+#: The validator's field of the first problem -> the MAV_MISSION code of the final MISSION_ACK.
+FIELD_CODES: dict[str, int] = {
+    "x": mavlink.MAV_MISSION_INVALID_PARAM5_X,
+    "y": mavlink.MAV_MISSION_INVALID_PARAM6_Y,
+    "depth": mavlink.MAV_MISSION_INVALID_PARAM7,
+    "yaw": mavlink.MAV_MISSION_INVALID_PARAM4,
+    "radius": mavlink.MAV_MISSION_INVALID_PARAM1,
+    "count": mavlink.MAV_MISSION_NO_SPACE,
+}
+_TYPE_NAMES = {TYPE_MISSION: "mission", TYPE_FENCE: "fence", TYPE_ALL: "mission and fence"}
+
+
+def problems_of(check: CheckLike, mission: Mission) -> list[ProblemLike]:
+    """The problems that refuse ``mission`` (a mission without goals is "no mission": valid)."""
+    return list(check.problems)
+
+
+def describe(p: ProblemLike, offset: int = 0) -> str:
+    """E.g. "goal 2 refused: inside obstacle 1 (inflated)" (with the seq when a home item shifts it)."""
+    if p.item == "mission" or p.index < 0:
+        return f"mission refused: {p.reason}"
+    seq = f" (item {p.index + offset})" if p.item == "goal" and offset else ""
+    return f"{p.item} {p.index}{seq} refused: {p.reason}"
+
+
+@dataclass
+class _Judge:
+    candidate: Candidate
+    mission: Mission
+    future: concurrent.futures.Future[CheckLike]
+    deadline_s: float
+    with_core: bool = False  # the validator passed it; the core has it
+
+
+class MissionService:
+    """The mission micro-service on the I/O thread; :meth:`mission` and :meth:`shape` from any thread."""
+
+    def __init__(
+        self,
+        config: MavlinkConfig,
+        transport: Transport,
+        requests: RequestQueue,
+        store: StateStore,
+        validator: Validator,
+        initial_mission: Mission | None = None,
+    ) -> None:
+        self.config = config
+        self.transport = transport
+        self.requests = requests
+        self.store = store
+        self.validator = validator
+        self.limits = MissionLimits(
+            origin_lat_deg=config.origin_lat_deg,
+            origin_lon_deg=config.origin_lon_deg,
+            origin_alt_m=config.origin_alt_m,
+            item_timeout_s=config.item_timeout_s,
+            upload_timeout_s=config.upload_timeout_s,
+        )
+        stored: dict[int, tuple[MissionItem, ...]] = {}
+        for mt in (TYPE_MISSION, TYPE_FENCE):
+            items = store.load_plan(mt)
+            if items is not None:
+                stored[mt] = items
+        self.server = MissionServer(self.limits, (config.system_id, config.component_id), stored)
+        if initial_mission is not None:  # --mission: checked by the runtime; wins and is persisted
+            goals, fences = items_from_mission(initial_mission)
+            for mt, items in ((TYPE_MISSION, goals), (TYPE_FENCE, fences)):
+                store.save_plan(mt, items)
+                self.server.replace(mt, items)
+        self.server.take_changed()
+        self._lock = threading.Lock()
+        self._mission = self.server.mission()
+        self._shape = (self.server.home_offset(), self.server.goal_count())
+        self._key = mission_key(self.server.items(TYPE_MISSION))
+        self._progress = store.load_progress(self._key)
+        self._saved_progress: tuple[str, int] | None = (
+            None if self._progress is None else (self._key, self._progress)
+        )
+        self._executor = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="mission-check")
+        self._judge: _Judge | None = None
+
+    # ---- any thread ------------------------------------------------------------------------------
+    def mission(self) -> Mission:
+        """The accepted mission (goals and fence obstacles)."""
+        with self._lock:
+            return self._mission
+
+    def shape(self) -> tuple[int, int]:
+        """(home offset, number of goals) of the accepted mission: MAVLink seq = goal index + offset."""
+        with self._lock:
+            return self._shape
+
+    def progress(self) -> int | None:
+        """The goal index persisted for the stored mission at boot (None: none, or another mission's)."""
+        return self._progress
+
+    def close(self) -> None:
+        self._executor.shutdown(wait=False, cancel_futures=True)
+
+    # ---- I/O thread ------------------------------------------------------------------------------
+    def handle(self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float) -> None:
+        for m in self.server.handle(msg, sender, now_s):
+            self.transport.send(m)
+        candidate = self.server.take_candidate()
+        if candidate is not None:
+            self._check(candidate, now_s)
+
+    def _check(self, candidate: Candidate, now_s: float) -> None:
+        mission = self.server.candidate_mission(candidate)
+        try:
+            future = self._executor.submit(self.validator, mission)
+        except RuntimeError as exc:  # shut down
+            self._finish(mavlink.MAV_MISSION_ERROR, f"upload refused: {exc}")
+            return
+        future.add_done_callback(lambda _f: self.transport.wake())
+        self._judge = _Judge(candidate, mission, future, now_s + self.config.validate_timeout_s)
+
+    def poll(self, now_s: float, snapshot: VehicleSnapshot | None = None) -> None:
+        for m in self.server.poll(now_s):
+            self.transport.send(m)
+        j = self._judge
+        if j is not None and not j.with_core:
+            if j.future.done():
+                self._checked(j)
+            elif now_s >= j.deadline_s:
+                j.future.cancel()
+                limit = self.config.validate_timeout_s
+                self._finish(
+                    mavlink.MAV_MISSION_ERROR,
+                    f"upload refused: the mission check took longer than {limit:g} s",
+                )
+        if snapshot is not None:
+            self._save_progress(snapshot)
+
+    def next_deadline(self) -> float | None:
+        ds = [d for d in (self.server.next_deadline(),) if d is not None]
+        j = self._judge
+        if j is not None and not j.with_core:
+            ds.append(j.deadline_s)
+        return min(ds) if ds else None
+
+    def _checked(self, j: _Judge) -> None:
+        try:
+            check = j.future.result()
+        except Exception as exc:
+            log.error("mission check failed", exc_info=exc)
+            self._finish(mavlink.MAV_MISSION_ERROR, f"upload refused: the mission check failed: {exc}")
+            return
+        problems = problems_of(check, j.mission)
+        if problems:
+            first = problems[0]
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            plans = j.candidate.plans
+            offset = home_offset(plans[TYPE_MISSION]) if TYPE_MISSION in plans else self.server.home_offset()
+            code = FIELD_CODES.get(first.field, mavlink.MAV_MISSION_ERROR)
+            self._finish(code, describe(first, offset) + more)
+            return
+        j.with_core = True
+        c = j.candidate
+        command = core.ReplaceMission(
+            j.mission, goals_changed=TYPE_MISSION in c.plans, source=f"MAVLink {c.sender[0]}/{c.sender[1]}"
+        )
+        self.requests.submit(command, self._answered)
+
+    def _answered(self, verdict: Verdict) -> None:
+        j = self._judge
+        if j is None:
+            return
+        if not verdict.accepted:
+            self._finish(mavlink.MAV_MISSION_ERROR, f"upload refused: {verdict.reason}")
+            return
+        c = j.candidate
+        for mt, items in sorted(c.plans.items()):
+            try:
+                self.store.save_plan(mt, items)
+            except OSError as exc:  # the core flies it already: say so, do not pretend it was refused
+                log.error("cannot persist the %s plan: %s", _TYPE_NAMES[mt], exc)
+                self.transport.statustext(
+                    Severity.CRITICAL,
+                    f"{_TYPE_NAMES[mt]} accepted but not saved ({exc.strerror or exc}): lost at a restart",
+                )
+        self._judge = None
+        acks = self.server.finish(mavlink.MAV_MISSION_ACCEPTED)
+        with self._lock:  # the accepted mission is in force before the ground station hears ACCEPTED
+            self._mission = self.server.mission()
+            self._shape = (self.server.home_offset(), self.server.goal_count())
+        self._key = mission_key(self.server.items(TYPE_MISSION))
+        for m in acks:
+            self.transport.send(m)
+        log.info(
+            "%s accepted: %d goals, %d obstacles",
+            _TYPE_NAMES.get(c.mission_type, "plan"),
+            len(j.mission.goals),
+            len(j.mission.obstacles),
+        )
+
+    def _finish(self, result: int, text: str = "") -> None:
+        self._judge = None
+        for m in self.server.finish(result):
+            self.transport.send(m)
+        if text:
+            log.warning("%s", text)
+            self.transport.statustext(Severity.WARNING, text)
+
+    def _save_progress(self, s: VehicleSnapshot) -> None:
+        with self._lock:
+            n = self._shape[1]
+        if n == 0 or s.current_goal < 0:
+            return
+        now = (self._key, s.current_goal)
+        if now == self._saved_progress:
+            return
+        try:
+            self.store.save_progress(s.current_goal, self._key)
+        except (OSError, ValueError) as exc:
+            log.error("cannot persist the mission progress: %s", exc)
+        self._saved_progress = now

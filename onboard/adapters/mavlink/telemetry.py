@@ -1,0 +1,314 @@
+"""HEARTBEAT, the telemetry streams, message intervals and the one table of mission states on MAVLink.
+
+Heartbeat: MAV_TYPE_SUBMARINE, MAV_AUTOPILOT_GENERIC. ``custom_mode`` uses the PX4 layout that MAVSDK decodes
+for a generic autopilot (main mode in byte 2, sub mode in byte 3: AUTO with READY / MISSION / LOITER / RTL),
+and byte 0 carries the index of the state in :data:`~onboard.adapters.mavlink.api.MISSION_STATES` (0 IDLE,
+1 ARMED, 2 RUNNING, 3 HOLD, 4 ABORT, 5 COMPLETE). ``base_mode`` MAV_MODE_FLAG_SAFETY_ARMED is
+``snapshot.armed`` and nothing else. ``system_status``: CRITICAL in ABORT or with a failsafe, ACTIVE when
+armed, STANDBY when ready and disarmed, BOOT while not ready (before the first valid navigation).
+
+MISSION_CURRENT carries ``snapshot.current_goal`` as a seq (home offset), ``total`` = the goals (the spec
+excludes home), ``mission_state`` from :data:`STATE_TABLE`. MISSION_ITEM_REACHED is sent whenever
+``goals_reached`` increases. ACTUATOR_OUTPUT_STATUS carries [rudder_rad, stern_port_rad,
+stern_starboard_rad, propeller_rps]. GLOBAL_POSITION_INT is the local position projected about the
+configured origin (alt = origin altitude - depth). EXTENDED_SYS_STATE (landed state undefined) is off unless
+a ground station sets its interval (MAVSDK does).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.adapters.mavlink.api import MISSION_STATES, VehicleSnapshot
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.mission_protocol import MissionLimits, local_to_global, seq_of_goal
+from onboard.adapters.mavlink.transport import Transport
+from onboard.core import commands as core
+from onboard.core.commands import Verdict
+from onboard.core.mission.state import MissionState
+from onboard.protocol.conventions import body_to_ned
+
+PX4_MAIN_AUTO = 4
+VERSION = (0, 1, 0)
+CAPABILITIES = (
+    mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+)
+
+
+@dataclass(frozen=True)
+class StateRow:
+    """How one mission state looks on MAVLink."""
+
+    sub_mode: int  # PX4 sub mode of main mode AUTO (custom_mode byte 3)
+    mission_state: int  # MISSION_CURRENT.mission_state
+    in_mission: bool  # MISSION_CURRENT.mission_mode
+
+
+S = MissionState
+#: The ONE table mapping the mission state to custom_mode / MISSION_STATE (MAV_STATE: :func:`system_status`).
+STATE_TABLE: dict[MissionState, StateRow] = {
+    S.IDLE: StateRow(1, mavlink.MISSION_STATE_NOT_STARTED, False),
+    S.ARMED: StateRow(1, mavlink.MISSION_STATE_NOT_STARTED, False),
+    S.RUNNING: StateRow(4, mavlink.MISSION_STATE_ACTIVE, True),
+    S.HOLD: StateRow(3, mavlink.MISSION_STATE_PAUSED, True),
+    S.ABORT: StateRow(5, mavlink.MISSION_STATE_PAUSED, False),
+    S.COMPLETE: StateRow(1, mavlink.MISSION_STATE_COMPLETE, False),
+}
+
+
+def custom_mode(state: MissionState) -> int:
+    return (PX4_MAIN_AUTO << 16) | (STATE_TABLE[state].sub_mode << 24) | MISSION_STATES.index(state.name)
+
+
+def system_status(s: VehicleSnapshot) -> int:
+    """MAV_STATE of a snapshot: CRITICAL (ABORT, failsafe) > ACTIVE (armed) > STANDBY (ready) > BOOT."""
+    if s.state is MissionState.ABORT or s.failsafe:
+        return mavlink.MAV_STATE_CRITICAL
+    if s.armed:
+        return mavlink.MAV_STATE_ACTIVE
+    if s.ready:
+        return mavlink.MAV_STATE_STANDBY
+    return mavlink.MAV_STATE_BOOT
+
+
+def _f(v: float) -> float:
+    """NaN-safe float for MAVLink float fields (NaN stays NaN, which MAVLink uses for unknown)."""
+    return float(v)
+
+
+def _i(v: float, lo: int, hi: int) -> int:
+    """Clamp a float to an integer field (NaN -> 0)."""
+    if not math.isfinite(v):
+        return 0
+    return max(lo, min(hi, round(v)))
+
+
+@dataclass
+class _Stream:
+    period_s: float
+    default_s: float
+    next_s: float = 0.0
+
+
+class Telemetry:
+    """Snapshot in (loop thread, :meth:`publish`), streams out (I/O thread, :meth:`poll`)."""
+
+    def __init__(
+        self,
+        config: MavlinkConfig,
+        transport: Transport,
+        clock: Callable[[], float],
+        shape: Callable[[], tuple[int, int]],
+        error_count: Callable[[], int] = lambda: 0,
+        progress: int | None = None,
+    ) -> None:
+        self.config = config
+        self.transport = transport
+        self._clock = clock
+        self._shape = shape
+        self._error_count = error_count
+        self._origin = MissionLimits(config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m)
+        self._lock = threading.Lock()
+        # Until the loop's first snapshot: the persisted progress, so MISSION_CURRENT never says goal 0
+        # of a mission that has progressed (the core restores the same value at boot).
+        self._snapshot = VehicleSnapshot(current_goal=progress or 0)
+        self.published = False
+        self._reached: collections.deque[int] = collections.deque(maxlen=256)
+        self._streams: dict[int, _Stream] = {}
+        for msg_id, rate in (
+            (mavlink.MAVLINK_MSG_ID_HEARTBEAT, config.heartbeat_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, config.position_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, config.position_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_ATTITUDE, config.attitude_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, config.nav_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, config.actuator_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_SYS_STATUS, config.sys_status_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, config.mission_current_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_HOME_POSITION, config.home_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, config.home_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 0.0),  # off unless asked for (MAVSDK asks)
+        ):
+            period = 1.0 / rate if rate > 0 else math.inf
+            self._streams[msg_id] = _Stream(period, period)
+
+    # ---- loop thread ---------------------------------------------------------------------------
+    def publish(self, snapshot: VehicleSnapshot) -> None:
+        """Store the loop's latest state (O(1)); queue MISSION_ITEM_REACHED for newly reached goals."""
+        offset = self._shape()[0]
+        with self._lock:
+            prev = self._snapshot
+            self._snapshot = snapshot
+            self.published = True
+            for k in range(max(0, snapshot.goals_reached - prev.goals_reached)):
+                self._reached.append(seq_of_goal(prev.current_goal + k, offset))
+
+    def snapshot(self) -> VehicleSnapshot:
+        with self._lock:
+            return self._snapshot
+
+    # ---- I/O thread ----------------------------------------------------------------------------
+    def poll(self, now: float) -> None:
+        while True:
+            with self._lock:
+                if not self._reached:
+                    break
+                seq = self._reached.popleft()
+            self.transport.send(mavlink.MAVLink_mission_item_reached_message(seq))
+        for msg_id, stream in self._streams.items():
+            if now >= stream.next_s:
+                stream.next_s = max(stream.next_s + stream.period_s, now) if stream.next_s else now
+                if stream.period_s < math.inf:
+                    self.send_message(msg_id)
+
+    def next_deadline(self) -> float:
+        with self._lock:
+            if self._reached:
+                return self._clock()
+        return min(s.next_s for s in self._streams.values())
+
+    def requestable(self) -> set[int]:
+        return set(self._streams) | {mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
+
+    def set_interval(self, msg_id: int, interval_us: float) -> Verdict:
+        """SET_MESSAGE_INTERVAL: < 0 off, 0 the default rate, else the interval (at most 100 Hz)."""
+        stream = self._streams.get(msg_id)
+        if stream is None or msg_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
+            return core.denied(f"the interval of message {msg_id} cannot be set")
+        if interval_us < 0:
+            stream.period_s = math.inf
+        elif interval_us == 0:
+            stream.period_s = stream.default_s
+        else:
+            stream.period_s = max(interval_us * 1e-6, 0.01)
+        stream.next_s = self._clock()
+        return core.accepted("interval set")
+
+    def send_mission_current(self, goal_index: int | None = None) -> None:
+        """MISSION_CURRENT now (``goal_index`` given: the goal just selected, before the loop reports it)."""
+        s = self.snapshot()
+        offset, n = self._shape()  # total excludes a home item (spec)
+        index = s.current_goal if goal_index is None else goal_index
+        row = STATE_TABLE[s.state]
+        self.transport.send(
+            mavlink.MAVLink_mission_current_message(
+                _i(seq_of_goal(index, offset), 0, 65535),
+                n,
+                row.mission_state if n else mavlink.MISSION_STATE_NO_MISSION,
+                1 if row.in_mission else 0,
+            )
+        )
+
+    def send_message(self, msg_id: int) -> None:
+        s = self.snapshot()
+        boot_ms = _i(s.t_s * 1000.0, 0, 2**32 - 1)
+        usec = _i(s.t_s * 1e6, 0, 2**63 - 1)
+        c = self.config
+        m: mavlink.MAVLink_message
+        if msg_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
+            base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+            if s.armed:
+                base |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+            m = mavlink.MAVLink_heartbeat_message(
+                mavlink.MAV_TYPE_SUBMARINE,
+                mavlink.MAV_AUTOPILOT_GENERIC,
+                base,
+                custom_mode(s.state),
+                system_status(s),
+                3,
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
+            vn, ve, vd = body_to_ned(s.roll_rad, s.pitch_rad, s.yaw_rad, s.u_mps, s.v_mps, s.w_mps)
+            m = mavlink.MAVLink_local_position_ned_message(boot_ms, s.x_m, s.y_m, s.depth_m, vn, ve, vd)
+        elif msg_id == mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
+            vn, ve, vd = body_to_ned(s.roll_rad, s.pitch_rad, s.yaw_rad, s.u_mps, s.v_mps, s.w_mps)
+            lat, lon = local_to_global(s.x_m, s.y_m, self._origin)
+            hdg = math.degrees(s.yaw_rad) % 360.0 if math.isfinite(s.yaw_rad) else math.nan
+            m = mavlink.MAVLink_global_position_int_message(
+                boot_ms,
+                _i(lat * 1e7, -900_000_000, 900_000_000),
+                _i(lon * 1e7, -1_800_000_000, 1_800_000_000),
+                _i((c.origin_alt_m - s.depth_m) * 1000.0, -(2**31), 2**31 - 1),
+                _i(-s.depth_m * 1000.0, -(2**31), 2**31 - 1),
+                _i(vn * 100.0, -32768, 32767),
+                _i(ve * 100.0, -32768, 32767),
+                _i(vd * 100.0, -32768, 32767),
+                _i(hdg * 100.0, 0, 35999) if math.isfinite(hdg) else 65535,
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE:
+            m = mavlink.MAVLink_extended_sys_state_message(
+                mavlink.MAV_VTOL_STATE_UNDEFINED, mavlink.MAV_LANDED_STATE_UNDEFINED
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_ATTITUDE:
+            m = mavlink.MAVLink_attitude_message(
+                boot_ms, s.roll_rad, s.pitch_rad, s.yaw_rad, s.p_radps, s.q_radps, s.r_radps
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT:
+            bearing = math.degrees(s.yaw_rad)
+            target = math.degrees(s.yaw_rad + s.yaw_error_rad)
+            m = mavlink.MAVLink_nav_controller_output_message(
+                0.0,
+                0.0,
+                _i(bearing, -32768, 32767),
+                _i(target, -32768, 32767),
+                _i(s.goal_distance_m, 0, 65535),
+                _f(s.depth_error_m),
+                0.0,
+                _f(s.cross_track_m),
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS:
+            acts = [s.rudder_rad, s.stern_port_rad, s.stern_starboard_rad, s.propeller_rps]
+            m = mavlink.MAVLink_actuator_output_status_message(usec, 4, [*acts, *([0.0] * 28)])
+        elif msg_id == mavlink.MAVLINK_MSG_ID_SYS_STATUS:
+            load = _i(s.loop_load * 1000.0, 0, 65535)
+            errors = self._error_count()
+            m = mavlink.MAVLink_sys_status_message(
+                0, 0, 0, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535), _i(s.overruns, 0, 65535), 0, 0, 0
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
+            self.send_mission_current()
+            return
+        elif msg_id == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
+            m = mavlink.MAVLink_home_position_message(
+                round(c.origin_lat_deg * 1e7),
+                round(c.origin_lon_deg * 1e7),
+                round(c.origin_alt_m * 1000),
+                0.0,
+                0.0,
+                0.0,
+                [1.0, 0.0, 0.0, 0.0],
+                0.0,
+                0.0,
+                0.0,
+                usec,
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
+            m = mavlink.MAVLink_gps_global_origin_message(
+                round(c.origin_lat_deg * 1e7),
+                round(c.origin_lon_deg * 1e7),
+                round(c.origin_alt_m * 1000),
+                usec,
+            )
+        elif msg_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            sw = (
+                (VERSION[0] << 24)
+                | (VERSION[1] << 16)
+                | (VERSION[2] << 8)
+                | mavlink.FIRMWARE_VERSION_TYPE_DEV
+            )
+            m = mavlink.MAVLink_autopilot_version_message(
+                CAPABILITIES, sw, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, 0, [0] * 18
+            )
+        else:
+            return
+        self.transport.send(m)

@@ -1,0 +1,310 @@
+"""Sockets, peers, the selector, signing, the receive budget and the send fan-out (the I/O thread's tools).
+
+:class:`Transport` owns the endpoint sockets (``udpout``, ``udpin``, ``tcpin`` and its connections), decodes
+every UDP datagram on its own (:func:`onboard.adapters.mavlink.wire.decode_datagram`) with the signature
+checked before the timestamp, sheds datagrams beyond ``rx_budget_per_s`` unparsed (counted), learns the
+peers that speak to it (at most :data:`MAX_PEERS` per socket, forgotten after :data:`PEER_EXPIRY_S`) and
+sends every message to every peer. :meth:`Transport.wake` (any thread) interrupts :meth:`Transport.wait`.
+
+STATUSTEXT: :meth:`Transport.statustext` maps a core :class:`~onboard.core.commands.Severity` to
+MAV_SEVERITY (the one table, :data:`MAV_SEVERITY`) and splits a text longer than 50 bytes into chunks with
+a common non-zero ``id`` and ``chunk_seq`` 0, 1, ... (MAVLink 2; the last chunk ends with a NUL, so a text
+that fills its last chunk exactly is followed by an empty one).
+"""
+
+from __future__ import annotations
+
+import logging
+import selectors
+import socket
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key, parse_endpoint
+from onboard.adapters.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
+from onboard.core.commands import Severity
+
+log = logging.getLogger(__name__)
+
+PEER_EXPIRY_S = 30.0
+MAX_PEERS = 16
+STATUSTEXT_LEN = 50
+Addr = tuple[str, int]
+Sender = tuple[int, int]
+OnMessage = Callable[[mavlink.MAVLink_message, Sender, float], None]
+
+#: The one mapping of the core's note severities to MAV_SEVERITY.
+MAV_SEVERITY: dict[Severity, int] = {
+    Severity.CRITICAL: mavlink.MAV_SEVERITY_CRITICAL,
+    Severity.ERROR: mavlink.MAV_SEVERITY_ERROR,
+    Severity.WARNING: mavlink.MAV_SEVERITY_WARNING,
+    Severity.NOTICE: mavlink.MAV_SEVERITY_NOTICE,
+    Severity.INFO: mavlink.MAV_SEVERITY_INFO,
+}
+
+
+def addressed_to(msg: mavlink.MAVLink_message, system_id: int, component_id: int) -> bool:
+    """True if ``msg`` targets (system_id, component_id) or broadcasts (0); messages without a target too."""
+    ts = int(getattr(msg, "target_system", 0))
+    tc = int(getattr(msg, "target_component", 0))
+    return ts in (0, system_id) and tc in (0, component_id)
+
+
+def statustext_chunks(text: str, chunk_id: int) -> list[tuple[bytes, int, int]]:
+    """(text bytes, id, chunk_seq) of the STATUSTEXT messages for ``text``; one with id 0 if it fits."""
+    raw = text.encode("ascii", "replace")
+    if len(raw) <= STATUSTEXT_LEN:
+        return [(raw, 0, 0)]
+    chunks = [raw[i : i + STATUSTEXT_LEN] for i in range(0, len(raw), STATUSTEXT_LEN)]
+    if len(chunks[-1]) == STATUSTEXT_LEN:
+        chunks.append(b"")  # the NUL that ends the text
+    return [(c, chunk_id, k) for k, c in enumerate(chunks)]
+
+
+@dataclass
+class _Socket:
+    kind: str
+    sock: socket.socket
+    fixed: Addr | None = None
+    peers: dict[Addr, float] = field(default_factory=dict)  # learned address -> last rx (monotonic)
+    stream_parser: Any = None  # for TCP connections
+    server: bool = False
+
+
+class _Fanout:
+    """File-like sink for pymavlink's ``MAVLink.send``: one packet to every peer of every socket."""
+
+    def __init__(self, transport: Transport) -> None:
+        self.transport = transport
+
+    def write(self, buf: bytes) -> None:
+        self.transport._send_raw(bytes(buf))
+
+
+class Transport:
+    """The endpoint's sockets and the MAVLink encoder. All but :meth:`wake` run on the I/O thread."""
+
+    def __init__(self, config: MavlinkConfig, clock: Callable[[], float], on_message: OnMessage) -> None:
+        self.config = config
+        self._clock = clock
+        self.on_message = on_message
+        self.rx = RxStats()
+        self.tx_packets = 0
+        self.tx_errors = 0
+        self._mav = mavlink.MAVLink(_Fanout(self), config.system_id, config.component_id)
+        self._verifier: SigningVerifier | None = None
+        if config.signing_key_file:
+            key = load_signing_key(config.signing_key_file)
+            self._verifier = SigningVerifier(key)
+            self._mav.signing.secret_key = key
+            self._mav.signing.link_id = config.signing_link_id
+            self._mav.signing.sign_outgoing = True
+            self._mav.signing.timestamp = signing_timestamp_now()
+        self._sockets: list[_Socket] = []
+        self._selector: selectors.BaseSelector | None = None
+        self._wake_r: socket.socket | None = None
+        self._wake_w: socket.socket | None = None
+        self._budget = float(config.rx_budget_per_s)
+        self._budget_t = clock()
+        self._text_id = 0
+
+    # ---- lifecycle -----------------------------------------------------------------------------
+    def open(self) -> None:
+        """Open the sockets of every configured endpoint (and the wake-up pair)."""
+        sel = selectors.DefaultSelector()
+        for spec in self.config.endpoints:
+            kind, host, port = parse_endpoint(spec)
+            if kind == "tcpin":
+                srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                srv.bind((host, port))
+                srv.listen(4)
+                srv.setblocking(False)
+                s = _Socket(kind, srv, server=True)
+            else:
+                sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+                if kind == "udpin":
+                    sock.bind((host, port))
+                    s = _Socket(kind, sock)
+                else:
+                    sock.bind(("0.0.0.0", 0))
+                    s = _Socket(kind, sock, fixed=(host, port))
+                sock.setblocking(False)
+            self._sockets.append(s)
+            sel.register(s.sock, selectors.EVENT_READ, s)
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+        sel.register(self._wake_r, selectors.EVENT_READ, None)
+        self._selector = sel
+
+    def close(self) -> None:
+        for s in self._sockets:
+            s.sock.close()
+        self._sockets.clear()
+        for w in (self._wake_r, self._wake_w):
+            if w is not None:
+                w.close()
+        self._wake_r = self._wake_w = None
+        if self._selector is not None:
+            self._selector.close()
+            self._selector = None
+
+    @property
+    def ports(self) -> list[int]:
+        """Local ports of the endpoint's sockets (after :meth:`open`), in config order."""
+        return [s.sock.getsockname()[1] for s in self._sockets if s.kind != "tcpconn"]
+
+    def wake(self) -> None:
+        """Interrupt :meth:`wait` (thread-safe; a no-op before :meth:`open`)."""
+        w = self._wake_w
+        if w is None:
+            return
+        try:
+            w.send(b"\0")
+        except OSError:  # full (already woken) or closed
+            pass
+
+    # ---- receive -------------------------------------------------------------------------------
+    def wait(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for input and dispatch every message received; False once closed."""
+        sel = self._selector
+        if sel is None:
+            return False
+        try:
+            ready = sel.select(timeout_s)
+        except (OSError, ValueError):
+            return False
+        for key, _ in ready:
+            if key.data is None:
+                self._drain_wake()
+            else:
+                self._read(key.data)
+        return True
+
+    def _drain_wake(self) -> None:
+        r = self._wake_r
+        if r is None:
+            return
+        try:
+            while r.recv(4096):
+                pass
+        except OSError:
+            pass
+
+    def _take_budget(self, now: float) -> bool:
+        rate = float(self.config.rx_budget_per_s)
+        self._budget = min(rate * 0.2, self._budget + (now - self._budget_t) * rate)
+        self._budget_t = now
+        if self._budget < 1.0:
+            return False
+        self._budget -= 1.0
+        return True
+
+    def _dispatch(self, msg: mavlink.MAVLink_message, now: float) -> None:
+        try:
+            self.on_message(msg, (msg.get_srcSystem(), msg.get_srcComponent()), now)
+        except Exception:  # never let one message kill the link
+            log.exception("MAVLink message %s failed", msg.get_type())
+
+    def _read(self, s: _Socket) -> None:
+        if s.server:
+            try:
+                conn, _addr = s.sock.accept()
+            except OSError:
+                return
+            conn.setblocking(False)
+            parser = mavlink.MAVLink(None)
+            parser.robust_parsing = True
+            c = _Socket("tcpconn", conn, stream_parser=parser)
+            self._sockets.append(c)
+            assert self._selector is not None
+            self._selector.register(conn, selectors.EVENT_READ, c)
+            return
+        if s.kind == "tcpconn":
+            self._read_tcp(s)
+            return
+        for _ in range(256):  # bounded per wake-up so timers keep running under a flood
+            try:
+                data, addr = s.sock.recvfrom(65535)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                return
+            now = self._clock()
+            if not self._take_budget(now):
+                self.rx.shed += 1
+                continue
+            for msg, _frame in decode_datagram(data, self.rx, self._verifier):
+                self._learn(s, addr, now)
+                self._dispatch(msg, now)
+
+    def _read_tcp(self, s: _Socket) -> None:
+        try:
+            data = s.sock.recv(65536)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            data = b""
+        if not data:
+            assert self._selector is not None
+            self._selector.unregister(s.sock)
+            s.sock.close()
+            self._sockets.remove(s)
+            return
+        now = self._clock()
+        msgs = s.stream_parser.parse_buffer(data) or []
+        for msg in msgs:
+            if msg.get_type() == "BAD_DATA":
+                self.rx.malformed += 1
+                continue
+            frame = bytes(msg.get_msgbuf())
+            if self._verifier is not None and not self._verifier.verify(frame, self.rx):
+                continue
+            self.rx.packets += 1
+            self._dispatch(msg, now)
+
+    def _learn(self, s: _Socket, addr: Addr, now: float) -> None:
+        if addr == s.fixed:
+            return
+        if addr not in s.peers and len(s.peers) >= MAX_PEERS:
+            oldest = min(s.peers, key=lambda a: s.peers[a])
+            del s.peers[oldest]
+        s.peers[addr] = now
+
+    # ---- send ----------------------------------------------------------------------------------
+    def _send_raw(self, buf: bytes) -> None:
+        now = self._clock()
+        for s in list(self._sockets):
+            if s.server:
+                continue
+            try:
+                if s.kind == "tcpconn":
+                    s.sock.send(buf)
+                    continue
+                for addr, last in list(s.peers.items()):
+                    if now - last > PEER_EXPIRY_S:
+                        del s.peers[addr]
+                        continue
+                    s.sock.sendto(buf, addr)
+                if s.fixed is not None:
+                    s.sock.sendto(buf, s.fixed)
+            except OSError:
+                self.tx_errors += 1
+        self.tx_packets += 1
+
+    def send(self, msg: mavlink.MAVLink_message) -> None:
+        """Send one message to every peer (I/O thread only)."""
+        self._mav.send(msg)
+
+    def statustext(self, severity: Severity, text: str) -> None:
+        """One STATUSTEXT (chunked when longer than 50 bytes) with the severity mapped by the one table."""
+        sev = MAV_SEVERITY.get(severity, mavlink.MAV_SEVERITY_INFO)
+        if len(text.encode("ascii", "replace")) > STATUSTEXT_LEN:
+            self._text_id = self._text_id % 65535 + 1
+        for raw, chunk_id, seq in statustext_chunks(text, self._text_id):
+            self.send(mavlink.MAVLink_statustext_message(sev, raw, chunk_id, seq))

@@ -1,0 +1,211 @@
+"""A vehicle-side process: the real onboard core and MAVLink link over a simple plant (tests, benches).
+
+``python -m onboard.app.standalone --endpoint udpin:127.0.0.1:0 --state-dir DIR [--time-scale K]`` prints
+one JSON line ``{"ports": [...], "pid": N}`` on stdout once the sockets are bound, then runs until SIGTERM /
+SIGINT.
+
+:class:`SimpleVehicle` is the onboard program without the CAN bus: the real
+:class:`~onboard.core.autopilot.Autopilot` (its whole step: navigation filter, failsafes, arrival, guidance,
+PD, the end of a mission; every command and upload judged by ``Autopilot.handle`` through the bridge; plans
+from the planning worker) flies :class:`SimplePlant`, a kinematic point that answers the actuator commands
+with sensor messages. The plant is no model of the vehicle (that is ``hil_sim``): speed follows the
+propeller through the speed map with a 1 s lag, yaw rate is speed times the rudder's curvature, depth rate is
+speed times the stern. Simulated time runs ``time_scale`` times faster than the wall clock (lock-step
+inside the process: the plan of a tick is awaited, so a run repeats exactly). The configuration is the
+packaged ``onboard.toml`` (``--config`` may give another ``[mavlink]`` table).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from auv_common.config import ConfigError, load_toml
+from onboard.adapters.mavlink import bridge
+from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.endpoint import VehicleLink
+from onboard.app.config import load_config
+from onboard.app.planning import PlanWorker
+from onboard.app.runtime import mission_validator
+from onboard.core import commands as core
+from onboard.core.autopilot import Autopilot
+from onboard.core.config import CoreConfig
+from onboard.core.control.actuators import ActuatorCommand
+from onboard.core.mission.validate import check_mission
+from onboard.core.params import BusLimits, ParamSpec, param_table
+from onboard.protocol import messages as m
+
+
+def bus_limits() -> BusLimits:
+    """The DBC's command ranges (read with cantools)."""
+    from onboard.protocol.codec import command_ranges
+
+    return BusLimits.from_ranges(command_ranges())
+
+
+def default_core() -> CoreConfig:
+    """The core tables of the packaged ``onboard.toml`` (what the vehicle flies with)."""
+    return load_config().core
+
+
+def default_params(config: CoreConfig) -> tuple[ParamSpec, ...]:
+    """The parameter table of ``config`` bounded by the DBC's command ranges."""
+    return param_table(config, bus_limits())
+
+
+def make_link(
+    config: MavlinkConfig,
+    core_config: CoreConfig | None = None,
+    autopilot: Autopilot | None = None,
+    **kw: Any,
+) -> VehicleLink:
+    """A link with the one validator (bound to the autopilot's configuration when given) and the
+    parameter table of the configuration."""
+    cc = core_config or (autopilot.config if autopilot is not None else default_core())
+    validator = (
+        mission_validator(autopilot) if autopilot is not None else functools.partial(check_mission, config=cc)
+    )
+    return VehicleLink(config, validator=validator, params=default_params(cc), **kw)
+
+
+@dataclass
+class SimplePlant:
+    """A kinematic point at depth: x, y, depth (m, NED), yaw (rad), speed u (m/s)."""
+
+    x_m: float = 0.0
+    y_m: float = 0.0
+    depth_m: float = 0.0  # at the surface, at the origin
+    yaw_rad: float = 0.0
+    u_mps: float = 0.0
+    speed_per_rps: float = 1.5375 / 25.0  # the straight-run speed map of onboard.toml
+    rudder_per_curvature_radm: float = 0.68
+    lag_s: float = 1.0
+
+    def advance(self, cmd: ActuatorCommand, dt_s: float) -> tuple[float, float]:
+        """Move for ``dt_s`` under ``cmd``; returns (yaw rate, depth rate)."""
+        target = max(cmd.propeller_rps, 0.0) * self.speed_per_rps
+        self.u_mps += (target - self.u_mps) * min(dt_s / self.lag_s, 1.0)
+        r = -self.u_mps * cmd.rudder_rad / self.rudder_per_curvature_radm  # + rudder turns to port
+        w = self.u_mps * cmd.stern_rad  # + stern: nose down, deeper
+        if self.u_mps < 0.05 and self.depth_m > 0.0:
+            w = -0.1  # positively buoyant: floats up when stopped
+        self.yaw_rad = math.atan2(math.sin(self.yaw_rad + r * dt_s), math.cos(self.yaw_rad + r * dt_s))
+        self.x_m += self.u_mps * math.cos(self.yaw_rad) * dt_s
+        self.y_m += self.u_mps * math.sin(self.yaw_rad) * dt_s
+        self.depth_m = max(0.0, self.depth_m + w * dt_s)
+        return r, w
+
+    def sensors(self, t_s: float, r_radps: float, w_mps: float) -> dict[type, Any]:
+        pitch = -math.atan2(w_mps, self.u_mps) if self.u_mps > 0.05 else 0.0
+        msgs = [
+            m.AhrsAttitude(0.0, pitch, self.yaw_rad, t_s),
+            m.AhrsRates(0.0, 0.0, r_radps, t_s),
+            m.DepthMeas(self.depth_m, t_s),
+            m.DvlVelocity(self.u_mps, 0.0, 0.0, True, t_s),
+            m.PositionFix(self.x_m, self.y_m, t_s),
+        ]
+        return {type(msg): msg for msg in msgs}
+
+
+class SimpleVehicle:
+    """The real core, the link and :class:`SimplePlant`, ticking at the configured rate, ``time_scale``
+    times faster than the wall clock."""
+
+    def __init__(self, link: VehicleLink, autopilot: Autopilot, rate_hz: float = 20.0) -> None:
+        self.link = link
+        self.ap = autopilot
+        self.plant = SimplePlant()
+        self.period_s = 1.0 / rate_hz
+        self.plans = PlanWorker(autopilot, lockstep=True)
+        self.t_s = 0.0
+        self.overruns = 0
+        self._r = self._w = 0.0
+        mission = link.mission()
+        if mission.goals or mission.obstacles:
+            autopilot.handle(core.ReplaceMission(mission, True, "stored mission"))
+            progress = link.progress()
+            if progress is not None:
+                autopilot.restore_progress(progress)
+            autopilot.take_notes()
+
+    def tick(self) -> None:
+        ap, dt = self.ap, self.period_s
+        cache = self.plant.sensors(self.t_s, self._r, self._w)
+        bridge.before_tick(ap, self.link)
+        self.plans.before_step()
+        out = ap.step(cache, self.t_s, dt)
+        self.plans.after_step()
+        bridge.after_tick(ap, self.link, out, self.t_s, self.overruns)
+        self._r, self._w = self.plant.advance(out.command, dt)
+        self.t_s += dt
+
+    def run(self, stop: threading.Event, time_scale: float = 1.0) -> None:
+        wall_period = self.period_s / time_scale
+        nxt = time.monotonic()
+        try:
+            while not stop.is_set():
+                self.tick()
+                nxt += wall_period
+                delay = nxt - time.monotonic()
+                if delay > 0:
+                    stop.wait(delay)
+                else:
+                    self.overruns += 1
+                    nxt = time.monotonic()
+        finally:
+            self.plans.close()
+
+
+def build(config: MavlinkConfig, rate_hz: float = 20.0, **link_kw: Any) -> SimpleVehicle:
+    """The link and the vehicle for ``config`` with the packaged core configuration."""
+    ap = Autopilot(default_core(), bus_limits=bus_limits())
+    link = make_link(config, autopilot=ap, **link_kw)
+    return SimpleVehicle(link, ap, rate_hz)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m onboard.app.standalone", description=__doc__)
+    ap.add_argument("--config", help="TOML file with a [mavlink] table")
+    ap.add_argument("--endpoint", action="append", help="endpoint spec (repeatable), overrides the config")
+    ap.add_argument("--state-dir", help="state directory (overrides the config)")
+    ap.add_argument("--signing-key", help="signing key file (overrides the config)")
+    ap.add_argument("--time-scale", type=float, default=1.0, help="simulated time per wall second")
+    ap.add_argument("--rate-hz", type=float, default=20.0)
+    args = ap.parse_args(argv)
+    try:
+        table = load_toml(args.config).get("mavlink", {}) if args.config else {}
+        if args.endpoint:
+            table["endpoints"] = args.endpoint
+        if args.state_dir:
+            table["state_dir"] = args.state_dir
+        if args.signing_key:
+            table["signing_key_file"] = args.signing_key
+        config = MavlinkConfig.from_table(table)
+    except ConfigError as exc:
+        sys.stderr.write(f"error: {exc}\n")
+        return 2
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    vehicle = build(config, args.rate_hz)
+    vehicle.link.start()
+    try:
+        sys.stdout.write(json.dumps({"ports": vehicle.link.ports, "pid": os.getpid()}) + "\n")
+        sys.stdout.flush()
+        vehicle.run(stop, args.time_scale)
+    finally:
+        vehicle.link.stop()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

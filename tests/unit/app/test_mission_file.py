@@ -1,0 +1,87 @@
+"""``--mission`` files: parsed at the edge, then checked by the one validator; one line per refusal."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from onboard.app.mission_file import load_mission
+from onboard.core.config import CoreConfig
+from onboard.core.mission.model import MissionError
+from onboard.core.safety.failsafe import FailsafeParams
+
+CFG = CoreConfig(failsafe=FailsafeParams(max_depth_m=20.0))
+
+
+def mission_file(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "m.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_a_good_file_loads_in_si_units(tmp_path: Path) -> None:
+    p = mission_file(
+        tmp_path,
+        "goals:\n"
+        "  - {x_m: 15.0, y_m: 0.0, depth_m: 1.0, yaw_deg: 0.0}\n"
+        "  - {x_m: 30.0, y_m: 10.0, depth_m: 2.0, yaw_deg: 270}\n"
+        "  - {x_m: 10.0, y_m: 30.0, depth_m: 2.0}\n"
+        "obstacles:\n"
+        "  - {x_m: 5.0, y_m: 30.0, radius_m: 1.5}\n",
+    )
+    m = load_mission(p, CFG)
+    assert len(m.goals) == 3 and m.goals[2].yaw_rad is None
+    assert m.goals[1].yaw_rad == pytest.approx(math.radians(-90.0))  # wrapped, as MAVLink's param4 is
+    assert m.obstacles[0].radius_m == 1.5
+
+
+def test_a_missing_depth_is_an_error_naming_the_goal(tmp_path: Path) -> None:
+    p = mission_file(tmp_path, "goals:\n  - {x_m: 15.0, y_m: 0.0, depth_m: 1.0}\n  - {x_m: 30.0, y_m: 0.0}\n")
+    with pytest.raises(MissionError, match=r"m\.yaml: goal 1: missing depth_m$"):
+        load_mission(p, CFG)
+
+
+def test_a_goal_below_the_failsafe_depth_is_refused_with_one_line(tmp_path: Path) -> None:
+    p = mission_file(
+        tmp_path, "goals:\n  - {x_m: 15.0, y_m: 0.0, depth_m: 1.0}\n  - {x_m: 30.0, y_m: 0, depth_m: 25}\n"
+    )
+    with pytest.raises(MissionError) as err:
+        load_mission(p, CFG)
+    assert str(err.value) == f"{p}: goal 1: depth 25 m is below the failsafe depth limit 20 m"
+    assert err.value.reason == "depth" and "\n" not in str(err.value)
+
+
+def test_several_problems_give_the_first_and_the_count(tmp_path: Path) -> None:
+    p = mission_file(
+        tmp_path, "goals:\n  - {x_m: 5000, y_m: 0, depth_m: 1}\n  - {x_m: 0, y_m: 0, depth_m: .nan}\n"
+    )
+    with pytest.raises(MissionError, match=r"goal 0: x 5000 m is outside .* \(and 1 more\)$"):
+        load_mission(p, CFG)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("goals: []\n", "m.yaml: a mission needs at least one goal"),
+        ("goals:\n  - {x_m: 1, y_m: 0, depth_m: true}\n", "goal 0: depth_m must be a number"),
+        ("goals:\n  - {x_m: .inf, y_m: 0, depth_m: 1}\n", "goal 0: x is not a finite number"),
+        ("goals:\n  - {x_m: 1, y_m: 0, depth_m: 1, speed: 2}\n", "goal 0: expected keys"),
+        ("goals: {x_m: 1}\n", "'goals' must be a list"),
+        ("waypoints: []\n", "unknown keys"),
+        ("goals: [\n", "not valid YAML"),
+        (
+            "goals:\n  - {x_m: 10, y_m: 0, depth_m: 1}\nobstacles:\n  - {x_m: 10, y_m: 0, radius_m: 1}\n",
+            "obstacle 0",
+        ),
+    ],
+)
+def test_format_and_limit_errors(tmp_path: Path, text: str, match: str) -> None:
+    with pytest.raises(MissionError, match=match):
+        load_mission(mission_file(tmp_path, text), CFG)
+
+
+def test_a_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(MissionError, match="No such file"):
+        load_mission(tmp_path / "nope.yaml", CFG)

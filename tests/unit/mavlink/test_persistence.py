@@ -1,0 +1,220 @@
+"""The state directory cannot brick the vehicle: a bad file is moved aside, announced and not loaded."""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION, MissionItem
+from onboard.adapters.mavlink.persistence import (
+    PARAMS_FILE,
+    PROGRESS_FILE,
+    StateDirError,
+    StateStore,
+    mission_key,
+)
+
+WP = MissionItem(1, 16, 0.0, math.nan, 0.0, math.nan, 100_000, -20_000, 3.0)  # LOCAL_NED waypoint
+FENCE = MissionItem(1, 5004, 2.0, 0.0, 0.0, 0.0, 50_000, 50_000, 0.0)  # circle exclusion, radius 2 m
+
+
+def write(path: Path, content: Any) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(content if isinstance(content, str) else json.dumps(content))
+
+
+def plan_file(*items: dict[str, Any]) -> dict[str, Any]:
+    return {"version": 1, "items": list(items)}
+
+
+def asides(directory: Path, name: str) -> list[Path]:
+    return sorted(directory.glob(f"{name}.invalid-*"))
+
+
+def test_good_files_round_trip(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    store.save_plan(TYPE_MISSION, (WP,))
+    store.save_plan(TYPE_FENCE, (FENCE,))
+    store.save_params({"LIM_RPS": 12.0})
+    again = StateStore(tmp_path)
+    mission, fence = again.load_plan(TYPE_MISSION), again.load_plan(TYPE_FENCE)
+    assert mission is not None and [i.key() for i in mission] == [WP.key()]
+    assert fence == (FENCE,)
+    assert again.load_params() == {"LIM_RPS": 12.0}
+    assert again.quarantined() == [] and not list(tmp_path.glob("*.invalid-*"))
+
+
+def test_nothing_stored_is_not_a_problem(tmp_path: Path) -> None:
+    store = StateStore(tmp_path / "absent")
+    assert store.load_plan(TYPE_MISSION) is None and store.load_params() == {}
+    assert store.load_progress("k") is None and store.quarantined() == []
+
+
+@pytest.mark.parametrize(
+    ("name", "mission_type", "content", "why"),
+    [
+        ("mission.json", TYPE_MISSION, '{"version": 1, "items": [{"frame": 1', "not valid JSON"),
+        ("mission.json", TYPE_MISSION, "[1, 2]", "expected a JSON object"),
+        ("mission.json", TYPE_MISSION, {"version": 1, "items": 3}, "'items' must be a JSON array"),
+        (
+            "mission.json",
+            TYPE_MISSION,
+            plan_file(WP.to_json(), {**WP.to_json(), "z": None}),
+            "item 1: depth is not a finite number: nan",
+        ),
+        (
+            "mission.json",
+            TYPE_MISSION,
+            plan_file({**WP.to_json(), "frame": 99}),
+            "item 0: frame 99 unsupported",
+        ),
+        (
+            "mission.json",
+            TYPE_MISSION,
+            plan_file({**WP.to_json(), "x": "1"}),
+            "item 0: x '1' is not an integer",
+        ),
+        ("mission.json", TYPE_MISSION, plan_file({**WP.to_json(), "command": 17}), "command 17 unsupported"),
+        ("mission.json", TYPE_MISSION, '{"version": 1, "items": [{"z": NaN}]}', "not valid JSON"),
+        (
+            "fence.json",
+            TYPE_FENCE,
+            plan_file({**FENCE.to_json(), "param1": -2.0}),
+            "item 0: radius -2 m must be positive",
+        ),
+    ],
+)
+def test_an_invalid_plan_file_is_moved_aside_and_announced(
+    tmp_path: Path,
+    caplog: pytest.LogCaptureFixture,
+    name: str,
+    mission_type: int,
+    content: Any,
+    why: str,
+) -> None:
+    write(tmp_path / name, content)
+    store = StateStore(tmp_path)
+    with caplog.at_level(logging.ERROR, logger="onboard.adapters.mavlink.persistence"):
+        assert store.load_plan(mission_type) is None
+    assert not (tmp_path / name).exists()
+    (aside,) = asides(tmp_path, name)
+    assert aside.read_text() == (content if isinstance(content, str) else json.dumps(content))  # kept as is
+    (line,) = store.quarantined()
+    assert line.startswith(f"{name} was invalid (") and why in line and line.endswith(aside.name)
+    errors = [r for r in caplog.records if r.levelno >= logging.ERROR]
+    assert len(errors) == 1 and why in errors[0].getMessage()
+    # the next boot finds nothing (and says nothing more)
+    again = StateStore(tmp_path)
+    assert again.load_plan(mission_type) is None and again.quarantined() == []
+
+
+def test_fence_radius_minus_two_names_the_item(tmp_path: Path) -> None:
+    write(
+        tmp_path / "fence.json",
+        plan_file(FENCE.to_json(), FENCE.to_json(), {**FENCE.to_json(), "param1": -2}),
+    )
+    store = StateStore(tmp_path)
+    assert store.load_plan(TYPE_FENCE) is None
+    assert "(item 2: radius -2 m must be positive)" in store.quarantined()[0]
+
+
+@pytest.mark.parametrize(
+    ("content", "why"),
+    [
+        ({"version": 1, "params": {"LIM_RPS": "12"}}, "LIM_RPS = '12' is not a finite number"),
+        ({"version": 1, "params": {"LIM_RPS": True}}, "is not a finite number"),
+        ({"version": 1, "params": {"A_VERY_LONG_PARAMETER_NAME": 1.0}}, "is not 1..16 characters"),
+        ({"version": 2, "params": {}}, "version 2"),
+        ("not json", "not valid JSON"),
+    ],
+)
+def test_an_invalid_params_file_is_moved_aside(tmp_path: Path, content: Any, why: str) -> None:
+    write(tmp_path / PARAMS_FILE, content)
+    store = StateStore(tmp_path)
+    assert store.load_params() == {}
+    assert len(asides(tmp_path, PARAMS_FILE)) == 1 and not (tmp_path / PARAMS_FILE).exists()
+    (line,) = store.quarantined()
+    assert why in line
+
+
+def test_two_quarantines_in_the_same_second_keep_both_files(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    for _ in range(2):
+        write(tmp_path / PARAMS_FILE, "{")
+        assert store.load_params() == {}
+    assert len(asides(tmp_path, PARAMS_FILE)) == 2 and len(store.quarantined()) == 2
+
+
+def test_progress_round_trip_and_mission_key(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    key = mission_key((WP,))
+    assert key == mission_key((MissionItem(**WP.__dict__),))  # stable, NaN included
+    store.save_progress(3, key)
+    assert StateStore(tmp_path).load_progress(key) == 3
+    # progress of another mission is never applied (and that file is not invalid: it stays)
+    other = mission_key((WP, WP))
+    assert other != key
+    assert StateStore(tmp_path).load_progress(other) is None
+    assert (tmp_path / PROGRESS_FILE).exists() and not asides(tmp_path, PROGRESS_FILE)
+    with pytest.raises(ValueError, match="goal_index"):
+        store.save_progress(-1, key)
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        {"version": 1, "mission_key": "k", "goal_index": -1},
+        {"version": 1, "mission_key": "k", "goal_index": 1.5},
+        {"version": 1, "mission_key": 7, "goal_index": 1},
+        '{"version": 1, "mission_key": "k", "goal_',
+    ],
+)
+def test_an_invalid_progress_file_is_moved_aside(tmp_path: Path, content: Any) -> None:
+    write(tmp_path / PROGRESS_FILE, content)
+    store = StateStore(tmp_path)
+    assert store.load_progress("k") is None
+    assert len(asides(tmp_path, PROGRESS_FILE)) == 1 and len(store.quarantined()) == 1
+
+
+def test_quarantine_is_public_for_whole_mission_refusals(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    store.save_plan(TYPE_MISSION, (WP,))
+    line = store.quarantine("mission.json", "goal 0: depth 30 m is below the failsafe depth limit 20 m")
+    assert "goal 0: depth 30 m" in line and store.quarantined() == [line]
+    assert store.load_plan(TYPE_MISSION) is None
+
+
+def test_a_state_directory_that_cannot_be_created(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(
+        StateDirError, match=r"^state directory .*/file/state cannot be created: Not a directory$"
+    ):
+        StateStore(blocker / "state").check_writable()
+    with pytest.raises(StateDirError, match="is not a directory"):
+        StateStore(blocker).check_writable()
+
+
+def test_a_writable_state_directory_passes_and_leaves_nothing(tmp_path: Path) -> None:
+    StateStore(tmp_path / "new").check_writable()
+    assert (tmp_path / "new").is_dir() and list((tmp_path / "new").iterdir()) == []
+
+
+def test_an_unwritable_state_directory(tmp_path: Path) -> None:
+    d = tmp_path / "ro"
+    d.mkdir()
+    d.chmod(0o500)
+    try:
+        if os.access(d, os.W_OK):
+            pytest.skip("chmod does not take write access away here (running as root)")
+        with pytest.raises(StateDirError) as err:
+            StateStore(d).check_writable()
+        assert str(err.value) == f"state directory {d} is not writable: Permission denied"
+    finally:
+        d.chmod(0o700)
