@@ -35,6 +35,7 @@ from typing import NamedTuple
 
 from hil_sim.model.hull import immersed_fraction
 from hil_sim.model.params import Coefficients
+from onboard.protocol.conventions import body_to_ned_matrix
 
 _sin = math.sin
 _cos = math.cos
@@ -92,19 +93,9 @@ def derivatives(state: tuple[float, ...], inputs: tuple[float, ...], c: Coeffici
     cphi = _cos(phi)
     sth = _sin(theta)
     cth = _cos(theta)
-    spsi = _sin(psi)
-    cpsi = _cos(psi)
 
-    # Rotation body -> NED, R = Rz(psi) Ry(theta) Rx(phi) (Fossen eq. 2.18).
-    r11 = cpsi * cth
-    r12 = cpsi * sth * sphi - spsi * cphi
-    r13 = cpsi * sth * cphi + spsi * sphi
-    r21 = spsi * cth
-    r22 = spsi * sth * sphi + cpsi * cphi
-    r23 = spsi * sth * cphi - cpsi * sphi
-    r31 = -sth
-    r32 = cth * sphi
-    r33 = cth * cphi
+    # Rotation body -> NED, R = Rz(psi) Ry(theta) Rx(phi) (Fossen eq. 2.18): the one in the bus contract.
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = body_to_ned_matrix(phi, theta, psi)
 
     # Current in body axes and the relative (through-the-water) velocity nu_r.
     if cn or ce or cd:

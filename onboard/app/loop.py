@@ -296,6 +296,8 @@ class ControlLoop:
 
     def run_lockstep(self, stop: threading.Event, idle_timeout_s: float | None = None) -> None:
         """One tick per SYNC frame until ``stop`` is set (or no SYNC for ``idle_timeout_s``)."""
+        if self.plans is not None:
+            self.plans.lockstep = True  # a plan is awaited before the next step: runs repeat exactly
         pending: list[BusMessage] = []
         last_sync = time.monotonic()
         while not stop.is_set():

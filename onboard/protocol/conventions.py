@@ -28,18 +28,32 @@ def wrap_pi(angle_rad: float) -> float:
     return a - math.pi
 
 
-def body_to_ned(
-    roll_rad: float, pitch_rad: float, yaw_rad: float, u: float, v: float, w: float
-) -> tuple[float, float, float]:
-    """A body-frame (FRD) vector u, v, w rotated to the world frame (NED): R = Rz(yaw) Ry(pitch) Rx(roll)
-    (ZYX Euler angles, Fossen eq. 2.18). NaN in, NaN out."""
+def body_to_ned_matrix(roll_rad: float, pitch_rad: float, yaw_rad: float) -> tuple[float, ...]:
+    """The rotation body (FRD) -> world (NED), R = Rz(yaw) Ry(pitch) Rx(roll) (ZYX Euler angles, Fossen
+    eq. 2.18), row by row: (r11, r12, r13, r21, r22, r23, r31, r32, r33). Its transpose is NED -> body."""
     cr, sr = math.cos(roll_rad), math.sin(roll_rad)
     cp, sp = math.cos(pitch_rad), math.sin(pitch_rad)
     cy, sy = math.cos(yaw_rad), math.sin(yaw_rad)
-    north = cy * cp * u + (cy * sp * sr - sy * cr) * v + (cy * sp * cr + sy * sr) * w
-    east = sy * cp * u + (sy * sp * sr + cy * cr) * v + (sy * sp * cr - cy * sr) * w
-    down = -sp * u + cp * sr * v + cp * cr * w
-    return north, east, down
+    return (
+        cy * cp,
+        cy * sp * sr - sy * cr,
+        cy * sp * cr + sy * sr,
+        sy * cp,
+        sy * sp * sr + cy * cr,
+        sy * sp * cr - cy * sr,
+        -sp,
+        cp * sr,
+        cp * cr,
+    )
+
+
+def body_to_ned(
+    roll_rad: float, pitch_rad: float, yaw_rad: float, u: float, v: float, w: float
+) -> tuple[float, float, float]:
+    """A body-frame (FRD) vector u, v, w rotated to the world frame (NED) (:func:`body_to_ned_matrix`).
+    NaN in, NaN out."""
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = body_to_ned_matrix(roll_rad, pitch_rad, yaw_rad)
+    return r11 * u + r12 * v + r13 * w, r21 * u + r22 * v + r23 * w, r31 * u + r32 * v + r33 * w
 
 
 def stern_split(stern_rad: float, roll_diff_rad: float) -> tuple[float, float]:

@@ -37,6 +37,7 @@ from onboard.core.nav.types import (
     NavState,
     PositionFix,
 )
+from onboard.protocol.conventions import body_to_ned
 
 
 @dataclass(frozen=True)
@@ -193,13 +194,8 @@ _NO_CONDITIONS = NavCondition(0)
 
 
 def _horizontal_velocity(dvl: DvlVelocity, ahrs: Ahrs) -> tuple[float, float]:
-    """Body velocity (FRD) rotated to NED x and y (m/s), using the ZYX Euler angles (first two rows of R)."""
-    cf, sf = math.cos(ahrs.roll_rad), math.sin(ahrs.roll_rad)
-    ct, st = math.cos(ahrs.pitch_rad), math.sin(ahrs.pitch_rad)
-    cp, sp = math.cos(ahrs.yaw_rad), math.sin(ahrs.yaw_rad)
-    u, v, w = dvl.u_mps, dvl.v_mps, dvl.w_mps
-    vx = cp * ct * u + (cp * st * sf - sp * cf) * v + (cp * st * cf + sp * sf) * w
-    vy = sp * ct * u + (sp * st * sf + cp * cf) * v + (sp * st * cf - cp * sf) * w
+    """Body velocity (FRD) rotated to NED x and y (m/s), with the ZYX Euler angles."""
+    vx, vy, _ = body_to_ned(ahrs.roll_rad, ahrs.pitch_rad, ahrs.yaw_rad, dvl.u_mps, dvl.v_mps, dvl.w_mps)
     return vx, vy
 
 
