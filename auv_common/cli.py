@@ -32,7 +32,6 @@ def run_bench_sections(prog: str, sections: dict[str, str], argv: list[str] | No
 
     ``sections`` maps a section name to a module with ``run(quick: bool) -> dict[str, float]``; a section
     that fails is written as ``{"error": ...}`` and the others still run. ``auv-bench`` merges the files.
-    (groundstation keeps its own copy: the import contract keeps it away from ``onboard``.)
     """
     import argparse
     import importlib

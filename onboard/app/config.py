@@ -9,7 +9,7 @@ The default file is ``onboard/config/onboard.toml`` (the one the bench and the s
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -17,33 +17,23 @@ from auv_common.config import ConfigError, from_table, load_toml
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.app.loop import LoopConfig
 from onboard.core.config import CoreConfig
-from onboard.core.control.pd import ControlParams
-from onboard.core.guidance.guidance import GuidanceParams
-from onboard.core.mission.params import MissionParams
-from onboard.core.nav.estimator import NavParams
-from onboard.core.planner.config import PlannerConfig
-from onboard.core.safety.failsafe import FailsafeParams
 from onboard.protocol.bus import BusConfig
 
 DEFAULT_CONFIG_PATH = Path(__file__).parents[1] / "config" / "onboard.toml"
 
 
 @dataclass(frozen=True)
-class OnboardConfig:
+class OnboardConfig(CoreConfig):
+    """The core's tables (:class:`~onboard.core.config.CoreConfig`) and the program's: bus, loop, MAVLink."""
+
     bus: BusConfig = field(default_factory=BusConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
-    planner: PlannerConfig = field(default_factory=PlannerConfig)
-    nav: NavParams = field(default_factory=NavParams)
-    guidance: GuidanceParams = field(default_factory=GuidanceParams)
-    control: ControlParams = field(default_factory=ControlParams)
-    failsafe: FailsafeParams = field(default_factory=FailsafeParams)
-    mission: MissionParams = field(default_factory=MissionParams)
     mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
 
     @property
     def core(self) -> CoreConfig:
-        """The tables the pure core flies with."""
-        return CoreConfig(self.planner, self.nav, self.guidance, self.control, self.failsafe, self.mission)
+        """The tables the pure core flies with (nothing of the bus, the loop or the link)."""
+        return CoreConfig(**{f.name: getattr(self, f.name) for f in fields(CoreConfig)})
 
 
 def config_from_dict(data: dict[str, Any], where: str) -> OnboardConfig:
