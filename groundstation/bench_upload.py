@@ -58,7 +58,11 @@ def stop_vehicle(proc: subprocess.Popen[str]) -> None:
 
 
 def _goals(n: int, k: int) -> list:  # type: ignore[type-arg]
-    return [goal_item(10.0 * math.cos(i + k), 10.0 * math.sin(i + k), 1.0 + (i % 5), None) for i in range(n)]
+    # goals 1 rad apart on a 10 m circle, depth alternating 1 / 1.5 m: every leg is flyable (the vehicle
+    # checks the whole mission, planning each leg, before it accepts it)
+    return [
+        goal_item(10.0 * math.cos(i + k), 10.0 * math.sin(i + k), 1.0 + 0.5 * (i % 2), None) for i in range(n)
+    ]
 
 
 def _measure(port: int, n: int, reps: int, loss: float) -> tuple[list[float], int, int]:
