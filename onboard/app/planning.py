@@ -18,8 +18,8 @@ import concurrent.futures
 import logging
 from typing import Any
 
-from onboard.core.autopilot import PlanRequest, compute_plan
 from onboard.core.planner.errors import PlannerError
+from onboard.core.plans import PlanRequest, compute_plan
 
 log = logging.getLogger(__name__)
 

@@ -30,6 +30,14 @@ and reports; it asserts nothing about time. Two parts:
     /proc/stat: on a VM, late wake-ups of milliseconds are usually the vCPU not running at all), the ratios
     ``lateness_p99_sleep_over_hybrid_ratio`` and ``cpu_fraction_hybrid_over_sleep_ratio``, and ``spin_us``,
     ``realtime_rate_hz``, ``realtime_duration_s``.
+(c) **Ticks while a large plan is computed** (issue 9: planning never in the tick). A START with 400 fence
+    circles (one on the leg, 399 in a grid around it): the plan is computed by the loop's planning worker
+    (:class:`onboard.app.planning.PlanWorker`, real-time mode) while the autopilot keeps ticking at 20 Hz on
+    the wall clock (the sensors of a vehicle at rest, as a dict: no bus). Figures:
+    ``plan400_wall_ms`` (from the request to the plan's arrival), ``plan400_ticks_waiting`` (the ticks that
+    ran meanwhile, holding still), ``plan400_tick_p50_us`` / ``plan400_tick_max_us`` (the ticks while the
+    worker plans) against ``plan400_reference_tick_p50_us`` / ``..._max_us`` (the same ticks after), and
+    ``plan400_tick_max_over_reference_ratio``. Before the worker existed the whole plan ran inside one tick.
 """
 
 from __future__ import annotations
@@ -338,10 +346,78 @@ def wakeup_lateness(quick: bool = False, config: OnboardConfig | None = None) ->
     return out
 
 
+def tick_while_planning(quick: bool = False, config: OnboardConfig | None = None) -> dict[str, float]:
+    """Part (c): tick compute while the planning worker plans a 400-obstacle leg (see the docstring)."""
+    from onboard.app.planning import PlanWorker
+    from onboard.core import commands as c
+    from onboard.core.mission.model import Obstacle
+
+    cfg = config or load_config()
+    period = cfg.loop.period_s
+    ap = Autopilot(cfg.core)
+    # one circle on the leg (the path must go round it) and 399 in a 7 m grid around it (the tangent graph)
+    grid = [(-69.5 + 7.0 * i, -69.5 + 7.0 * j) for i in range(22) for j in range(22)]
+    around = [Obstacle(x, y, 0.3) for x, y in grid if not (abs(y) < 9.0 and -12.0 < x < 32.0)]
+    fence = (Obstacle(10.0, 0.0, 1.5), *around[:399])
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), fence))
+    worker = PlanWorker(ap, lockstep=False)
+
+    def sensors(t: float) -> dict[type, Any]:
+        msgs = [
+            m.AhrsAttitude(0.0, 0.0, 0.0, t),
+            m.AhrsRates(0.0, 0.0, 0.0, t),
+            m.DepthMeas(1.0, t),
+            m.DvlVelocity(0.0, 0.0, 0.0, True, t),
+            m.PositionFix(0.0, 0.0, t),
+        ]
+        return {type(msg): msg for msg in msgs}
+
+    t0 = time.monotonic()
+    ap.step(sensors(0.0), 0.0, period)
+    ap.handle(c.Arm("bench"))
+    ap.handle(c.Start(None, "bench"))
+    waiting: list[float] = []
+    after: list[float] = []
+    asked = time.perf_counter()
+    plan_wall_s = math.nan
+    k, n_after = 0, 20 if quick else 60
+    nxt = time.monotonic()
+    try:
+        while len(after) < n_after and k < 2000:
+            k += 1
+            now = time.monotonic() - t0
+            t1 = time.perf_counter()
+            worker.before_step()
+            ap.step(sensors(now), now, period)
+            worker.after_step()
+            dt = time.perf_counter() - t1
+            if ap.path is None:
+                waiting.append(dt)
+            else:
+                if math.isnan(plan_wall_s):
+                    plan_wall_s = time.perf_counter() - asked
+                after.append(dt)
+            nxt += period
+            time.sleep(max(0.0, nxt - time.monotonic()))
+    finally:
+        worker.close()
+    us = 1e6
+    ref_max = max(after) if after else math.nan
+    return {
+        "plan400_wall_ms": plan_wall_s * 1e3,
+        "plan400_ticks_waiting": float(len(waiting)),
+        "plan400_tick_p50_us": _percentile(waiting, 50) * us if waiting else math.nan,
+        "plan400_tick_max_us": max(waiting) * us if waiting else math.nan,
+        "plan400_reference_tick_p50_us": _percentile(after, 50) * us if after else math.nan,
+        "plan400_reference_tick_max_us": ref_max * us,
+        "plan400_tick_max_over_reference_ratio": (max(waiting) / ref_max) if waiting and after else math.nan,
+    }
+
+
 def run(quick: bool = False) -> dict[str, float]:
-    """Both parts (see the module docstring)."""
+    """The three parts (see the module docstring)."""
     cfg = load_config()
-    return {**tick_compute(quick, cfg), **wakeup_lateness(quick, cfg)}
+    return {**tick_compute(quick, cfg), **wakeup_lateness(quick, cfg), **tick_while_planning(quick, cfg)}
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -36,16 +36,15 @@ from onboard.core import control, guidance, nav
 from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import NEUTRAL, ActuatorCommand, ActuatorFlag, saturate
 from onboard.core.guidance.guidance import GuidanceReference
-from onboard.core.mission.model import Goal, Mission, MissionError
+from onboard.core.mission.model import Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, MissionStatus, Transition, transition
 from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
-from onboard.core.planner.path import ArcSegment, Path
-from onboard.core.planner.planner import inflate, plan
+from onboard.core.planner.path import Path
+from onboard.core.plans import PlanRequest
 from onboard.core.safety import failsafe
 from onboard.core.safety.failsafe import FailsafeFlag
 from onboard.protocol import messages as m
-from onboard.protocol.conventions import wrap_pi
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +57,6 @@ _RUNNING = MissionState.RUNNING
 _HOLD = MissionState.HOLD
 _COMPLETE = MissionState.COMPLETE
 _ABORT = MissionState.ABORT
-LOITER_LAPS = 1000  # a loiter path is this many laps of its circle (hours): re-planned only if it ends
 Severity = c.Severity
 
 
@@ -144,67 +142,6 @@ _NO_REFERENCE_ROW: dict[str, float | int | str] = dict.fromkeys(
     ),
     math.nan,
 )
-
-
-@dataclass(frozen=True)
-class PlanRequest:
-    """A plan the core needs, computed by :func:`compute_plan` off the control thread.
-
-    ``kind``: ``goal`` (from the vehicle's pose to goal ``goal_index``) or ``loiter`` (onto a circle of
-    ``loiter_radius_m`` around the goal, then round it). ``t_s`` is when it was asked for (the core's time).
-    """
-
-    request_id: int
-    kind: str
-    goal_index: int
-    start: tuple[float, float, float]
-    start_depth_m: float
-    goal: Goal
-    obstacles: tuple[Any, ...]
-    planner: Any
-    loiter_radius_m: float
-    t_s: float
-    deadline_s: float
-
-
-def compute_plan(request: PlanRequest) -> Path:
-    """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it."""
-    g = request.goal
-    if request.kind == "goal":
-        return plan(
-            request.start,
-            (g.x_m, g.y_m, g.yaw_rad),
-            request.planner,
-            request.obstacles,
-            start_depth_m=request.start_depth_m,
-            goal_depth_m=g.depth_m,
-        )
-    # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
-    r = request.loiter_radius_m
-    for i, (ox, oy, orad) in enumerate(inflate(request.obstacles, request.planner)):
-        if abs(math.hypot(ox - g.x_m, oy - g.y_m) - r) < orad:
-            raise PlannerError("turning_circle_blocked", f"the loiter circle ({r:g} m) cuts obstacle {i}")
-    heading = request.start[2]
-    entry_yaw = wrap_pi(heading + math.pi / 2.0)
-    entry = (g.x_m + r * math.cos(heading), g.y_m + r * math.sin(heading), entry_yaw)
-    run_in = plan(
-        request.start,
-        entry,
-        request.planner,
-        request.obstacles,
-        start_depth_m=request.start_depth_m,
-        goal_depth_m=g.depth_m,
-    )
-    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_LAPS)
-    return Path(
-        (*run_in.segments, circle),
-        start_depth_m=g.depth_m,
-        end_depth_m=g.depth_m,
-        virtual_goals=run_in.virtual_goals,
-        word=run_in.word + "R",
-        cost=run_in.cost,
-        start_pose=run_in.start_pose,
-    )
 
 
 @dataclass
@@ -528,7 +465,9 @@ class Autopilot:
             self.planner_error = f"{result.reason}: {result}"
             log.error("cannot plan %s %d: %s", req.kind, req.goal_index, self.planner_error)
             if req.kind == "loiter":
-                self._note(c.Severity.WARNING, f"loiter not possible ({self.planner_error}): surfacing")
+                text = f"loiter not possible ({self.planner_error}): surfacing"
+                log.warning("%s", text)
+                self._note(c.Severity.WARNING, text)
                 self.path, self.path_kind = None, "surface"
             else:
                 self.apply(
@@ -652,7 +591,7 @@ class Autopilot:
                 reference, self.guidance_state, _ = guidance.step(
                     nav_state, self.path, self.guidance_state, cfg.guidance, dt_s
                 )
-                if reference.arrived:  # after LOITER_LAPS laps: round again
+                if reference.arrived:  # after all the laps of the loiter path: round again
                     self._ask_plan("loiter")
                 command, self.controller_state, _ = control.step(
                     nav_state, reference, self.controller_state, cfg.control, dt_s
@@ -709,11 +648,12 @@ class Autopilot:
         tries = self.config.mission.max_tries
         if self.attempt < tries:
             self.attempt += 1
-            self._note(
-                c.Severity.WARNING,
+            text = (
                 f"goal {index} missed by {miss_m:.2f} m (arrival radius {radius:g} m): "
-                f"re-planning, try {self.attempt} of {tries}",
+                f"re-planning, try {self.attempt} of {tries}"
             )
+            log.warning("%s", text)
+            self._note(c.Severity.WARNING, text)
             self._drop_path()
             self._ask_plan("goal")
             return

@@ -10,9 +10,10 @@ import pytest
 from onboard.app import planning
 from onboard.app.planning import PlanWorker
 from onboard.core import commands as c
-from onboard.core.autopilot import Autopilot, compute_plan
+from onboard.core.autopilot import Autopilot
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.state import MissionState
+from onboard.core.plans import compute_plan
 from tests.unit.autopilot.test_autopilot import DT, core, sensors
 
 

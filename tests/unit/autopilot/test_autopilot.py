@@ -9,11 +9,12 @@ from pathlib import Path
 from auv_common.config import from_table, load_toml
 from onboard.core import commands as c
 from onboard.core import nav
-from onboard.core.autopilot import Autopilot, compute_plan
+from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.planner.errors import PlannerError
+from onboard.core.plans import compute_plan
 from onboard.protocol import messages as m
 
 DT = 0.05

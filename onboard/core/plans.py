@@ -1,0 +1,81 @@
+"""Plans the core asks for: what a request carries and the pure function that answers it.
+
+The core never plans inside its step (:mod:`onboard.core.autopilot`): it puts a :class:`PlanRequest`
+out and the loop's worker (:mod:`onboard.app.planning`) runs :func:`compute_plan` on it off the control
+thread. Both are pure: the planner, the goal, the obstacles and the configuration travel in the request.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from onboard.core.mission.model import Goal
+from onboard.core.planner.errors import PlannerError
+from onboard.core.planner.path import ArcSegment, Path
+from onboard.core.planner.planner import inflate, plan
+from onboard.protocol.conventions import wrap_pi
+
+LOITER_LAPS = 1000  # a loiter path is this many laps of its circle (hours): re-planned only if it ends
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """A plan the core needs, computed by :func:`compute_plan` off the control thread.
+
+    ``kind``: ``goal`` (from the vehicle's pose to goal ``goal_index``) or ``loiter`` (onto a circle of
+    ``loiter_radius_m`` around the goal, then round it). ``t_s`` is when it was asked for (the core's time).
+    """
+
+    request_id: int
+    kind: str
+    goal_index: int
+    start: tuple[float, float, float]
+    start_depth_m: float
+    goal: Goal
+    obstacles: tuple[Any, ...]
+    planner: Any
+    loiter_radius_m: float
+    t_s: float
+    deadline_s: float
+
+
+def compute_plan(request: PlanRequest) -> Path:
+    """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it."""
+    g = request.goal
+    if request.kind == "goal":
+        return plan(
+            request.start,
+            (g.x_m, g.y_m, g.yaw_rad),
+            request.planner,
+            request.obstacles,
+            start_depth_m=request.start_depth_m,
+            goal_depth_m=g.depth_m,
+        )
+    # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
+    r = request.loiter_radius_m
+    for i, (ox, oy, orad) in enumerate(inflate(request.obstacles, request.planner)):
+        if abs(math.hypot(ox - g.x_m, oy - g.y_m) - r) < orad:
+            raise PlannerError("turning_circle_blocked", f"the loiter circle ({r:g} m) cuts obstacle {i}")
+    heading = request.start[2]
+    entry_yaw = wrap_pi(heading + math.pi / 2.0)
+    entry = (g.x_m + r * math.cos(heading), g.y_m + r * math.sin(heading), entry_yaw)
+    run_in = plan(
+        request.start,
+        entry,
+        request.planner,
+        request.obstacles,
+        start_depth_m=request.start_depth_m,
+        goal_depth_m=g.depth_m,
+    )
+    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_LAPS)
+    return Path(
+        (*run_in.segments, circle),
+        start_depth_m=g.depth_m,
+        end_depth_m=g.depth_m,
+        virtual_goals=run_in.virtual_goals,
+        word=run_in.word + "R",
+        cost=run_in.cost,
+        start_pose=run_in.start_pose,
+    )
