@@ -46,7 +46,7 @@ from onboard.adapters.mavlink.mission_protocol import (
     home_offset,
     items_from_mission,
 )
-from onboard.adapters.mavlink.persistence import StateStore, mission_key
+from onboard.adapters.mavlink.persistence import FILE_NAMES, StateStore, mission_key
 from onboard.adapters.mavlink.transport import Sender, Transport
 from onboard.core import commands as core
 from onboard.core.commands import Severity, Verdict
@@ -138,7 +138,18 @@ class MissionService:
             items = store.load_plan(mt)
             if items is not None:
                 stored[mt] = items
-        self.server = MissionServer(self.limits, (config.system_id, config.component_id), stored)
+        ids = (config.system_id, config.component_id)
+        self.server = MissionServer(self.limits, ids, stored)
+        if stored and initial_mission is None:
+            # the persisted mission passes the same check as an upload, or it is set aside (goals and fence
+            # are one unit: both) and the vehicle boots with no mission
+            mission = self.server.mission()
+            problems = problems_of(validator(mission), mission)
+            if problems:
+                why = describe(problems[0], self.server.home_offset())
+                for mt in sorted(stored):
+                    store.quarantine(FILE_NAMES[mt], why)
+                self.server = MissionServer(self.limits, ids, {})
         if initial_mission is not None:  # --mission: checked by the runtime; wins and is persisted
             goals, fences = items_from_mission(initial_mission)
             for mt, items in ((TYPE_MISSION, goals), (TYPE_FENCE, fences)):

@@ -175,3 +175,27 @@ def test_threads_do_not_leak(tmp_path: Path) -> None:
     v = Vehicle(tmp_path / "s").start()
     v.stop()
     assert threading.active_count() <= before
+
+
+def test_a_persisted_mission_that_fails_the_mission_check_is_set_aside_at_boot(tmp_path: Path) -> None:
+    # GIVEN a well-formed persisted mission whose goal lies below the failsafe depth (20 m), and its fence
+    from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION, items_from_mission
+    from onboard.adapters.mavlink.persistence import StateStore
+    from onboard.core.mission.model import Goal, Mission, Obstacle
+    from tests.integration.mavlink.conftest import Vehicle
+
+    state = tmp_path / "state"
+    goals, fence = items_from_mission(Mission((Goal(10.0, 0.0, 25.0, None),), (Obstacle(0.0, 30.0, 1.0),)))
+    StateStore(state).save_plan(TYPE_MISSION, goals)
+    StateStore(state).save_plan(TYPE_FENCE, fence)
+    # WHEN the vehicle boots
+    v = Vehicle(state)
+    # THEN it boots with no mission, both files are moved aside (kept), and the reason is recorded for the GCS
+    assert v.link.mission().goals == () and v.link.mission().obstacles == ()
+    assert v.loop.ap.mission.goals == ()
+    lines = v.link.store.quarantined()
+    assert len(lines) == 2 and all("depth 25" in line for line in lines)
+    assert sorted(p.name.split(".invalid-")[0] for p in state.glob("*.invalid-*")) == [
+        "fence.json",
+        "mission.json",
+    ]
