@@ -18,8 +18,10 @@ Truth rules kept here, in one place:
   command (ARMED, RUNNING, HOLD, and COMPLETE with the ``loiter`` end action). Whenever it is False the
   propeller command is 0 rps in the same tick (no ramp-down).
 - A goal is reached only when the vehicle's estimate crosses the goal line within ``[mission]
-  arrival_radius_m`` of the goal; farther off it is a miss: re-planned from where the vehicle is to the same
-  goal pose (the paper's homing), up to ``max_tries`` attempts, then HOLD with the reason.
+  arrival_radius_m`` of the goal, and the estimate is itself that good (its position 1-sigma no coarser
+  than the radius; else HOLD: the arrival cannot be confirmed); farther off it is a miss: re-planned from
+  where the vehicle is to the same goal pose (the paper's homing), up to ``max_tries`` attempts, then HOLD
+  with the reason.
 - After the last goal the end action runs: ``surface`` (propeller 0 and fins neutral at once) or ``loiter``
   (circle the last goal at its depth). Nothing drives on past the goal.
 """
@@ -635,6 +637,15 @@ class Autopilot:
         goal = self.mission.goals[index]
         miss_m = math.hypot(goal.x_m - nav_state.x_m, goal.y_m - nav_state.y_m)
         radius = self.config.mission.arrival_radius_m
+        std_m = nav_state.position_std_m
+        if not std_m <= radius:  # the estimate itself is less certain than the precision to claim
+            self.apply(
+                MissionEvent.HOLD,
+                f"goal {index} cannot be confirmed: the position is known to {std_m:.1f} m (1 sigma), "
+                f"coarser than the arrival radius {radius:g} m",
+                severity=c.Severity.WARNING,
+            )
+            return
         if miss_m <= radius:
             self.goals_reached += 1
             self.attempt = 1

@@ -58,6 +58,7 @@ def fly(
     current: tuple[float, float] = (0.0, 0.0),
     seed: int = 0,
     timeout_s: float = 120.0,
+    profile: str = "basin",
 ) -> dict[str, Any]:
     """Fly scenario ``name``; returns the metrics of :func:`hil_sim.scenario.compute_metrics` and more."""
     sc = SCENARIOS[name]
@@ -67,6 +68,7 @@ def fly(
     hil_cfg = HilConfig(
         bench=BenchConfig(
             time_mode="lockstep",
+            sensor_profile=profile,  # type: ignore[arg-type]
             seed=seed,
             duration_s=round(2.0 * length + 10.0, 1),
             stop_on_state=("COMPLETE", "ABORT"),
@@ -112,6 +114,7 @@ def fly(
         raise TimeoutError(f"{name}: the closed loop did not finish within {timeout_s} s")
     metrics = compute_metrics(read_truth(truth), samples, sc.goal)
     metrics["final_state"] = autopilot.status.state.name
+    metrics["final_reason"] = autopilot.status.reason
     metrics["ticks"] = loop.stats.ticks
     metrics["rejected"] = dict(port.receiver.rejected)
     metrics["truth_log"] = str(truth)

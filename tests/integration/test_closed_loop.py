@@ -76,3 +76,14 @@ def test_complete_is_declared_only_within_the_arrival_radius_in_a_strong_current
         assert all(float(r["propeller_cmd_rps"]) == 0.0 for r in rows[start + 1 :])
     else:
         assert m["final_state"] in ("RUNNING", "HOLD"), m
+
+
+def test_with_sea_grade_fixes_an_arrival_the_estimate_cannot_confirm_is_not_called_complete(tmp_path) -> None:
+    # GIVEN the paper's turn with the `sea` sensor profile (2 m position fixes), seed 0: before, COMPLETE was
+    # declared 8.4 m from the goal (the estimate had drifted; the filter knew its position only to ~1-4 m)
+    m = fly("paper-turn", tmp_path, profile="sea", seed=0)
+    with open(m["truth_log"]) as f:
+        states = {r["onboard_state"] for r in csv.DictReader(f)}
+    # THEN the vehicle does not claim the goal: it holds and says why
+    assert "COMPLETE" not in states and m["final_state"] == "HOLD", m
+    assert "cannot be confirmed" in m["final_reason"]

@@ -347,3 +347,15 @@ def test_a_parameter_is_judged_by_the_core_and_the_verdict_carries_the_value_in_
     v = ap.handle(c.SetParam("PD_KP5", -0.5))
     assert v.accepted and v.value == -0.5 and ap.config.control.gains.Kp5 == -0.5
     assert not ap.handle(c.SetParam("NOPE", 1.0)).accepted
+
+
+def test_an_arrival_the_estimate_cannot_confirm_holds_with_the_reason() -> None:
+    # GIVEN a vehicle whose estimate says "at the goal" but whose position is known only to 3.6 m (sea fixes)
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
+    tick(ap, 0.05)
+    assert ap.last_nav is not None
+    at_goal = dataclasses.replace(ap.last_nav, x_m=20.0, y_m=0.05, position_std_m=3.6)
+    ap._arrived(at_goal)
+    # THEN it does not claim the goal: it holds and says why
+    assert ap.status.state is S.HOLD and ap.goals_reached == 0
+    assert "cannot be confirmed" in ap.status.reason and "3.6 m" in ap.status.reason
