@@ -40,6 +40,7 @@ from onboard.core.control.actuators import NEUTRAL, ActuatorCommand, ActuatorFla
 from onboard.core.guidance.guidance import GuidanceReference
 from onboard.core.mission.model import Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, MissionStatus, Transition, transition
+from onboard.core.mission.validate import check_limits
 from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
@@ -361,9 +362,15 @@ class Autopilot:
         if self.bus_limits is None:
             return c.denied(f"{name}: parameters cannot be set (the bus limits are unknown)", value=in_force)
         try:
-            self.config = params.apply_param(self.config, name, value, self.bus_limits)
+            config = params.apply_param(self.config, name, value, self.bus_limits)
         except params.ParamError as exc:
             return c.denied(exc.reason, value=in_force)
+        broken = check_limits(self.mission, config).first
+        if broken is not None:  # e.g. a failsafe depth above a goal of the mission in force
+            return c.denied(
+                f"{name} = {value:g} refused: the mission would break it ({broken})", value=in_force
+            )
+        self.config = config
         return c.accepted(f"{name} = {value:g}", value=params.param_value(self.config, name))
 
     # --- mission events (the state machine applied; kept for the tests and the step) ---------------

@@ -144,7 +144,11 @@ class MissionService:
             # the persisted mission passes the same check as an upload, or it is set aside (goals and fence
             # are one unit: both) and the vehicle boots with no mission
             mission = self.server.mission()
-            problems = problems_of(validator(mission), mission)
+            try:
+                problems = problems_of(validator(mission), mission)
+            except Exception:  # a bug in the check must not brick the boot: keep the mission, say so
+                log.exception("the persisted mission could not be checked; it is kept")
+                problems = []
             if problems:
                 why = describe(problems[0], self.server.home_offset())
                 for mt in sorted(stored):

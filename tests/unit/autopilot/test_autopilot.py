@@ -347,6 +347,10 @@ def test_a_parameter_is_judged_by_the_core_and_the_verdict_carries_the_value_in_
     v = ap.handle(c.SetParam("PD_KP5", -0.5))
     assert v.accepted and v.value == -0.5 and ap.config.control.gains.Kp5 == -0.5
     assert not ap.handle(c.SetParam("NOPE", 1.0)).accepted
+    # a change that would leave the mission in force out of its limits is refused too
+    ap.replace_mission(Mission((Goal(20.0, 0.0, 8.0, 0.0),)))
+    v = ap.handle(c.SetParam("FS_MAX_DEPTH_M", 5.0))
+    assert not v.accepted and "goal 0" in v.reason and ap.config.failsafe.max_depth_m == v.value == 20.0
 
 
 def test_an_arrival_the_estimate_cannot_confirm_holds_with_the_reason() -> None:
