@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import logging
+import time
 from typing import Any
 
 from onboard.core.planner.errors import PlannerError
@@ -29,6 +30,9 @@ def _run(request: PlanRequest) -> Any:
         return compute_plan(request)
     except PlannerError as exc:
         return exc
+    except Exception as exc:  # a planner bug: the vehicle holds with the reason, the loop goes on
+        log.exception("planning %s %d failed", request.kind, request.goal_index)
+        return PlannerError("internal", f"the planner failed: {type(exc).__name__}: {exc}")
 
 
 class PlanWorker:
@@ -38,7 +42,7 @@ class PlanWorker:
         self.autopilot = autopilot
         self.lockstep = lockstep
         self._pool: concurrent.futures.ThreadPoolExecutor | None = None
-        self._jobs: list[tuple[PlanRequest, concurrent.futures.Future[Any], bool]] = []
+        self._jobs: list[tuple[PlanRequest, concurrent.futures.Future[Any], bool, float]] = []
         self.plans = 0
         self.late = 0
 
@@ -52,7 +56,7 @@ class PlanWorker:
         the autopilot; in lock-step wait for each first (once, up to its deadline)."""
         self.after_step()
         keep = []
-        for request, future, waited in self._jobs:
+        for request, future, waited, t_s in self._jobs:
             if self.lockstep and not waited and not future.done():
                 try:
                     future.result(timeout=request.deadline_s)
@@ -63,18 +67,25 @@ class PlanWorker:
             if future.done():
                 self.autopilot.plan_done(request.request_id, future.result())
             else:
-                keep.append((request, future, waited))
+                keep.append((request, future, waited, t_s))
         self._jobs = keep
 
     def after_step(self) -> None:
-        """Submit the plan the autopilot asked for, if any."""
+        """Submit the plan the autopilot asked for, if any (on a fresh worker if the one there is still
+        busy with a plan past its deadline: a late plan never delays the next one)."""
         request = self.autopilot.take_plan_request()
         if request is None:
             return
+        now = time.monotonic()
+        if self._pool is not None and any(
+            not f.done() and now - t > r.deadline_s for r, f, _w, t in self._jobs
+        ):
+            self._pool.shutdown(wait=False, cancel_futures=True)  # its thread ends when its plan does
+            self._pool = None
         if self._pool is None:
             self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="planner")
         self.plans += 1
-        self._jobs.append((request, self._pool.submit(_run, request), False))
+        self._jobs.append((request, self._pool.submit(_run, request), False, now))
 
     def close(self) -> None:
         if self._pool is not None:

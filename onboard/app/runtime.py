@@ -265,7 +265,13 @@ def main(argv: list[str] | None = None) -> int:
         store = StateStore(cfg0.mavlink.resolved_state_dir()) if mavlink_on else None
         if store is not None:
             store.check_writable()
-        boot = resolve_config(args.config, sets, store.load_params() if store is not None else {})
+        persisted = store.load_params() if store is not None else {}
+        boot = resolve_config(args.config, sets, persisted)
+        if store is not None and boot.dropped:  # a refused edit is not kept to be applied at a later boot
+            try:
+                store.save_params({n: v for n, v in persisted.items() if n not in boot.dropped})
+            except OSError as exc:
+                log.error("cannot rewrite the persisted parameters without the refused ones: %s", exc)
         mission = load_mission(args.mission, boot.config.core) if args.mission else None
     except (ConfigError, MissionError, StateDirError) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
@@ -393,16 +399,19 @@ def _summary(loop: ControlLoop, autopilot: Autopilot) -> dict[str, Any]:
     }
 
 
-def mission_validator(autopilot: Autopilot) -> Callable[[Mission], MissionCheck]:
+def mission_validator(autopilot: Autopilot, timeout_s: float) -> Callable[[Mission], MissionCheck]:
     """The one mission check, with the configuration the core flies with at the time of the upload.
 
     Leg 0 is not planned from the vehicle's pose of the moment: the vehicle plans it at START from where it
     is then (and holds with the reason if it cannot); an upload is judged on what does not depend on where
-    the vehicle happens to be (limits, goals clear of obstacles, every leg between goals).
+    the vehicle happens to be (limits, goals clear of obstacles, every leg between goals). The planning of
+    the legs stops at ``timeout_s`` (wall clock) with a problem saying so: a check abandoned by its caller
+    does not go on planning, and a check at boot is bounded too.
     """
 
     def validator(candidate: Mission) -> MissionCheck:
-        return check_mission(candidate, autopilot.config)
+        t_end = time.monotonic() + timeout_s
+        return check_mission(candidate, autopilot.config, expired=lambda: time.monotonic() > t_end)
 
     return validator
 
@@ -413,7 +422,7 @@ def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, missi
 
     link = VehicleLink(
         boot.config.mavlink,
-        validator=mission_validator(autopilot),
+        validator=mission_validator(autopilot, boot.config.mavlink.validate_timeout_s),
         params=param_table(boot.configured.core, boot.bus_limits),
         param_values={name: param_value(boot.config.core, name) for name in PARAM_NAMES},
         initial_mission=mission,

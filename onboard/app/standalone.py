@@ -72,7 +72,9 @@ def make_link(
     parameter table of the configuration."""
     cc = core_config or (autopilot.config if autopilot is not None else default_core())
     validator = (
-        mission_validator(autopilot) if autopilot is not None else functools.partial(check_mission, config=cc)
+        mission_validator(autopilot, config.validate_timeout_s)
+        if autopilot is not None
+        else functools.partial(check_mission, config=cc)
     )
     return VehicleLink(config, validator=validator, params=default_params(cc), **kw)
 

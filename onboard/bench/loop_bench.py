@@ -354,7 +354,8 @@ def tick_while_planning(quick: bool = False, config: OnboardConfig | None = None
 
     cfg = config or load_config()
     period = cfg.loop.period_s
-    ap = Autopilot(cfg.core)
+    core = cfg.core
+    ap = Autopilot(dataclasses.replace(core, mission=dataclasses.replace(core.mission, max_obstacles=400)))
     # one circle on the leg (the path must go round it) and 399 in a 7 m grid around it (the tangent graph)
     grid = [(-69.5 + 7.0 * i, -69.5 + 7.0 * j) for i in range(22) for j in range(22)]
     around = [Obstacle(x, y, 0.3) for x, y in grid if not (abs(y) < 9.0 and -12.0 < x < 32.0)]

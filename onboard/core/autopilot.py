@@ -181,8 +181,8 @@ class Autopilot:
     def actuators_live(self) -> bool:
         """True exactly when the actuators may move under the vehicle's own command."""
         state = self.status.state
-        if state is _COMPLETE:
-            return self.config.mission.end_action == "loiter"
+        if state is _COMPLETE:  # loitering, unless the loiter fell back to surfacing
+            return self.config.mission.end_action == "loiter" and self.path_kind != "surface"
         return state is _ARMED or state is _RUNNING or state is _HOLD
 
     @property
@@ -330,10 +330,15 @@ class Autopilot:
             mission.validate()
         except MissionError as exc:
             return c.denied(f"mission refused: {exc}")
+        broken = check_limits(mission, self.config).first  # the configuration may have changed since
+        if broken is not None:
+            return c.denied(f"mission refused: {broken}")
         if not goals_changed:
             self.mission = mission
-            if self.status.state is _RUNNING and self.path_kind == "goal":
-                self._ask_plan("goal")  # keep flying the old path until the new one arrives
+            # a plan in flight or in use was made round the old obstacles: ask again (the old path is flown
+            # until the new one arrives; the answer to the old request is dropped)
+            if self.status.state is _RUNNING:
+                self._ask_plan("goal")
             elif self.status.state is _COMPLETE and self.path_kind == "loiter":
                 self._ask_plan("loiter")
             return c.accepted(f"fence replaced ({len(mission.obstacles)} obstacles)")
@@ -566,8 +571,10 @@ class Autopilot:
             self.planner_error = why
             if req.kind == "goal" and self.status.state is _RUNNING:
                 self.apply(MissionEvent.HOLD, why, severity=c.Severity.WARNING)
-            else:
-                self._note(c.Severity.WARNING, why)
+            elif req.kind == "loiter" and self.status.state is _COMPLETE:
+                log.warning("%s: surfacing", why)
+                self._note(c.Severity.WARNING, f"{why}: surfacing")
+                self.path, self.path_kind = None, "surface"
 
         reference: GuidanceReference | None = None
         command = NEUTRAL

@@ -69,3 +69,40 @@ def test_waits_for_a_missing_bus_then_stops_cleanly_on_sigterm() -> None:
     assert proc.returncode == 0
     assert "waiting for remote bus" in out
     assert "Traceback" not in out
+
+
+def test_a_persisted_edit_refused_at_boot_is_reported_and_removed_from_the_file(tmp_path) -> None:
+    # GIVEN a state directory whose params.json holds a value no longer allowed (45 deg: beyond the DBC's
+    # FIN_CMD rudder range) and one that is fine
+    import json
+
+    state = tmp_path / "state"
+    state.mkdir()
+    (state / "params.json").write_text(
+        json.dumps({"version": 1, "params": {"LIM_RUDDER_DEG": 45.0, "PD_KP5": -0.5}})
+    )
+    with socket.socket() as s:  # a hub nobody hosts: the firmware waits for the bus
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen(
+        [
+            sys.executable, "-m", "onboard", "run", "--state-dir", str(state),
+            "--set", f'bus.channel="ws://127.0.0.1:{port}/"',
+            "--set", 'mavlink.endpoints=["udpin:127.0.0.1:0"]',
+        ],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 20.0
+        kept: dict[str, float] = {}
+        while time.monotonic() < deadline:
+            kept = json.loads((state / "params.json").read_text())["params"]
+            if "LIM_RUDDER_DEG" not in kept:
+                break
+            time.sleep(0.1)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    # THEN the refused one is logged with the reason and dropped from the file; the good one stays
+    assert kept == {"PD_KP5": -0.5}
+    assert "LIM_RUDDER_DEG" in err and "dropped" in err and "Traceback" not in err

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from onboard.core.commands import Command
+from onboard.core.mission.model import Goal
 from onboard.core.mission.state import MissionState
 
 # The one vocabulary of states; the index of a state in this tuple is HEARTBEAT custom_mode byte 0.
@@ -48,6 +49,7 @@ class VehicleSnapshot:
     reason: str = ""
     current_goal: int = 0
     goals_reached: int = 0
+    mission_goals: tuple[Goal, ...] = ()  # the goals ``current_goal`` counts in (the mission in force)
     x_m: float = NAN
     y_m: float = NAN
     depth_m: float = NAN

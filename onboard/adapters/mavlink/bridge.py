@@ -62,6 +62,7 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
         "reason": status.reason,
         "current_goal": status.goal_index,
         "goals_reached": autopilot.goals_reached,
+        "mission_goals": autopilot.mission.goals,
     }
 
 

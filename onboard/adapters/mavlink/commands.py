@@ -294,11 +294,18 @@ class CommandService:
         if kind not in ("COMMAND_LONG", "COMMAND_INT"):
             return
         cmd = int(msg.command)
-        key = ("cmd", sender, cmd)
-        if self.requests.pending(key):
-            return  # a resend while the first is with the loop: its ACK answers both
         try:
             p = _params(msg)
+        except Exception as exc:  # a bug must still be answered
+            log.exception("command %d failed", cmd)
+            self._ack(cmd, sender, Verdict(Outcome.FAILED, f"command {cmd} failed: {type(exc).__name__}"))
+            return
+        # A resend (same command, same parameters; COMMAND_LONG's confirmation counts up) while the first is
+        # with the loop: the first one's ACK answers both. Other parameters are another command.
+        key = ("cmd", sender, cmd, tuple(repr(v) for v in p))
+        if self.requests.pending(key):
+            return
+        try:
             if cmd in _LINK_ONLY:
                 self._link_only(cmd, p, sender)
                 return

@@ -146,11 +146,11 @@ class MissionService:
             mission = self.server.mission()
             try:
                 problems = problems_of(validator(mission), mission)
-            except Exception:  # a bug in the check must not brick the boot: keep the mission, say so
-                log.exception("the persisted mission could not be checked; it is kept")
-                problems = []
-            if problems:
-                why = describe(problems[0], self.server.home_offset())
+                why = describe(problems[0], self.server.home_offset()) if problems else ""
+            except Exception as exc:  # a bug in the check must not brick the boot: boot safe, say why
+                log.exception("the persisted mission could not be checked")
+                why = f"it could not be checked: {type(exc).__name__}: {exc}"
+            if why:
                 for mt in sorted(stored):
                     store.quarantine(FILE_NAMES[mt], why)
                 self.server = MissionServer(self.limits, ids, {})
@@ -297,8 +297,9 @@ class MissionService:
     def _save_progress(self, s: VehicleSnapshot) -> None:
         with self._lock:
             n = self._shape[1]
-        if n == 0 or s.current_goal < 0:
-            return
+            goals = self._mission.goals
+        if n == 0 or s.current_goal < 0 or s.mission_goals != goals:
+            return  # (a snapshot of the mission before the one just accepted: its progress is not ours)
         now = (self._key, s.current_goal)
         if now == self._saved_progress:
             return

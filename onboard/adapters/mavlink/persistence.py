@@ -276,9 +276,12 @@ class StateStore:
                 return json.load(f, parse_constant=_refuse_constant)
         except FileNotFoundError:
             return None
-        except (OSError, ValueError) as exc:
-            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
-            self.quarantine(name, f"not valid JSON: {why}" if isinstance(exc, ValueError) else why)
+        except (OSError, ValueError, RecursionError) as exc:  # RecursionError: nested absurdly deep
+            if isinstance(exc, OSError):
+                why = exc.strerror or str(exc)
+            else:
+                why = f"not valid JSON: {_why(exc)}"
+            self.quarantine(name, why)
             return None
 
     # ---- plans -----------------------------------------------------------------------------------
@@ -296,8 +299,8 @@ class StateStore:
             return None
         try:
             return parse_plan(data, mission_type)
-        except InvalidStateFile as exc:
-            self.quarantine(name, str(exc))
+        except Exception as exc:  # anything in untrusted content (e.g. a 400-digit number) means invalid
+            self.quarantine(name, _why(exc))
             return None
 
     # ---- parameters ------------------------------------------------------------------------------
@@ -311,8 +314,8 @@ class StateStore:
             return {}
         try:
             return parse_params(data)
-        except InvalidStateFile as exc:
-            self.quarantine(PARAMS_FILE, str(exc))
+        except Exception as exc:  # anything in untrusted content (e.g. a 400-digit number) means invalid
+            self.quarantine(PARAMS_FILE, _why(exc))
             return {}
 
     # ---- mission progress ------------------------------------------------------------------------
@@ -335,13 +338,21 @@ class StateStore:
             return None
         try:
             key, index = parse_progress(data)
-        except InvalidStateFile as exc:
-            self.quarantine(PROGRESS_FILE, str(exc))
+        except Exception as exc:  # anything in untrusted content (e.g. a 400-digit number) means invalid
+            self.quarantine(PROGRESS_FILE, _why(exc))
             return None
         if key != mission_key:
             log.info("progress.json belongs to another mission; starting at goal 0")
             return None
         return index
+
+
+def _why(exc: BaseException) -> str:
+    """One line saying what is wrong with a state file."""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    if isinstance(exc, InvalidStateFile):
+        return text
+    return f"{type(exc).__name__}: {text}"[:200]
 
 
 def _refuse_constant(name: str) -> float:

@@ -357,20 +357,22 @@ def check_mission(
     """
     problems = list(check_limits(mission, config).problems)
     if not problems:
-        problems += _check_geometry(mission, config)
-    if not problems:
         problems += _check_legs(mission, config, _usable_start(start_pose), expired)
     return MissionCheck(tuple(problems))
 
 
 def check_limits(mission: Mission, config: CoreConfig) -> MissionCheck:
-    """The limits part of :func:`check_mission` alone (no planning: cheap enough for the control thread):
-    the core asks it before a parameter change that would leave the mission in force out of its limits."""
+    """:func:`check_mission` without the planning of the legs (cheap enough for the control thread): the
+    limits, and goals clear of the (inflated) obstacles. The core asks it when it takes a mission (the
+    configuration may have changed since the upload was checked) and before a parameter change that would
+    leave the mission in force out of its limits."""
     problems = _check_counts(mission, config)
     for i, g in enumerate(mission.goals):
         problems += _check_goal(i, g, config)
     for i, o in enumerate(mission.obstacles):
         problems += _check_obstacle(i, o, config)
+    if not problems:
+        problems += _check_geometry(mission, config)
     return MissionCheck(tuple(problems))
 
 

@@ -31,7 +31,7 @@ def gate(monkeypatch: pytest.MonkeyPatch) -> threading.Event:
 
 
 def armed(**mission: object) -> Autopilot:
-    ap = Autopilot(core(**mission))
+    ap = Autopilot(core(**{"max_obstacles": 400, **mission}))  # the default capacity is 64
     # 400 obstacles far from the leg: what took 0.93 s inside a tick before
     fence = tuple(Obstacle(-100.0 - 3.0 * (i % 20), -30.0 + 3.0 * (i // 20), 1.0) for i in range(400))
     assert ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),), fence)).accepted

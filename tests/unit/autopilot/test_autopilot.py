@@ -169,10 +169,12 @@ def test_a_fence_upload_keeps_the_state_and_the_current_goal() -> None:
     assert ap.status.state is S.COMPLETE
 
 
-def test_unreachable_goal_holds_with_the_planner_reason_and_resume_plans_again() -> None:
-    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 0.0, 3.0),))
+def test_a_leg_that_cannot_be_planned_holds_with_the_planner_reason_and_resume_plans_again() -> None:
+    # GIVEN a mission accepted (leg 0 is planned at START, from where the vehicle is) and a vehicle that
+    # sits inside an obstacle of the fence
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(0.0, 0.0, 1.0),))
     out = tick(ap, 0.05)
-    assert out.status.state is S.HOLD and "goal_in_obstacle" in out.planner_error
+    assert out.status.state is S.HOLD and "start_in_obstacle" in out.planner_error
     notes = ap.take_notes()
     assert any("cannot plan goal 0" in n.text and n.severity is c.Severity.WARNING for n in notes)
     ap.handle(c.ReplaceMission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)), goals_changed=False))
@@ -363,3 +365,44 @@ def test_an_arrival_the_estimate_cannot_confirm_holds_with_the_reason() -> None:
     # THEN it does not claim the goal: it holds and says why
     assert ap.status.state is S.HOLD and ap.goals_reached == 0
     assert "cannot be confirmed" in ap.status.reason and "3.6 m" in ap.status.reason
+
+
+def test_a_fence_that_arrives_while_the_plan_is_computed_is_planned_round() -> None:
+    # GIVEN a START whose plan (round the old, empty fence) is still with the worker
+    ap = Autopilot(core())
+    ap.replace_mission(Mission((Goal(40.0, 0.0, 1.0, 0.0),)))
+    tick(ap, 0.0)
+    assert ap.handle(c.Arm()).accepted and ap.handle(c.Start()).accepted
+    old = ap.take_plan_request()
+    assert old is not None and old.obstacles == ()
+    # WHEN a fence with an obstacle on the leg is accepted meanwhile
+    fence = (Obstacle(20.0, 0.0, 3.0),)
+    assert ap.handle(c.ReplaceMission(Mission(ap.mission.goals, fence), goals_changed=False)).accepted
+    # THEN the old answer is dropped and the new request carries the new obstacles
+    ap.plan_done(old.request_id, compute_plan(old))
+    assert ap.path is None
+    new = ap.take_plan_request()
+    assert new is not None and new.obstacles == fence
+    ap.plan_done(new.request_id, compute_plan(new))
+    assert ap.path is not None and ap.path.length_m > 40.5  # round the obstacle
+
+
+def test_a_mission_out_of_the_limits_in_force_is_refused_by_the_core_too() -> None:
+    # the upload was checked, then the failsafe depth was lowered before the core took the mission
+    ap = Autopilot(core())
+    ap.config = dataclasses.replace(
+        ap.config, failsafe=dataclasses.replace(ap.config.failsafe, max_depth_m=10.0)
+    )
+    v = ap.handle(c.ReplaceMission(Mission((Goal(20.0, 0.0, 15.0, 0.0),)), True))
+    assert not v.accepted and "depth 15" in v.reason and ap.mission.goals == ()
+
+
+def test_a_loiter_that_falls_back_to_surfacing_is_not_armed() -> None:
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 5.86, 0.5),), end_action="loiter")
+    tick(ap, 0.05)
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    tick(ap, 0.1, x=20.05, jump=True)  # COMPLETE: the loiter circle (5.86 m) cuts the obstacle
+    tick(ap, 0.15, x=20.05)  # the loiter plan is refused by the worker
+    out = tick(ap, 0.2, x=20.05)
+    assert out.status.state is S.COMPLETE and ap.path_kind == "surface"
+    assert not ap.actuators_live and out.propeller_rps == 0.0 and out.mode is m.ActuatorMode.SAFE

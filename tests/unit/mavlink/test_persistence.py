@@ -218,3 +218,23 @@ def test_an_unwritable_state_directory(tmp_path: Path) -> None:
         assert str(err.value) == f"state directory {d} is not writable: Permission denied"
     finally:
         d.chmod(0o700)
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("params.json", '{"version": 1, "params": {"PD_KP5": 1' + "0" * 400 + "}}"),
+        ("mission.json", '{"version": 1, "items": [{"frame": 1, "command": 16, "x": 1' + "0" * 400 + "}]}"),
+        ("progress.json", "[" * 100_000 + "]" * 100_000),
+    ],
+)
+def test_absurd_numbers_or_nesting_make_invalid_files_not_a_crash(
+    tmp_path: Path, name: str, text: str
+) -> None:
+    (tmp_path / name).write_text(text)
+    store = StateStore(tmp_path)
+    assert store.load_params() == {}
+    assert store.load_plan(TYPE_MISSION) is None
+    assert store.load_progress("key") is None
+    assert len(store.quarantined()) == 1 and name in store.quarantined()[0]
+    assert not (tmp_path / name).exists()
