@@ -95,6 +95,7 @@ class Autopilot(Protocol):
     def step(self, cache: dict[type, BusMessage], now_s: float, dt_s: float) -> AutopilotOutput: ...
     def note_overruns(self, consecutive: int) -> None: ...
     def note_encode_fault(self, message_name: str, reason: str) -> None: ...
+    def before_step(self) -> None: ...
 
 
 @dataclass
@@ -205,6 +206,7 @@ class ControlLoop:
             self._t0_s = now_s
         if self.before_tick is not None:
             self.before_tick(now_s)
+        self.autopilot.before_step()
         if self.plans is not None:
             self.plans.before_step()
         out = self.autopilot.step(self.cache, now_s, self.config.period_s)

@@ -143,6 +143,7 @@ class SimpleVehicle:
         ap, dt = self.ap, self.period_s
         cache = self.plant.sensors(self.t_s, self._r, self._w)
         bridge.before_tick(ap, self.link)
+        ap.before_step()
         self.plans.before_step()
         out = ap.step(cache, self.t_s, dt)
         self.plans.after_step()

@@ -147,6 +147,9 @@ class _TimedAutopilot:
     def note_encode_fault(self, message_name: str, reason: str) -> None:
         self.inner.note_encode_fault(message_name, reason)
 
+    def before_step(self) -> None:
+        self.inner.before_step()
+
     def take_plan_request(self) -> Any:
         return self.inner.take_plan_request()
 
@@ -274,6 +277,9 @@ class _StubAutopilot:
         pass
 
     def note_encode_fault(self, message_name: str, reason: str) -> None:
+        pass
+
+    def before_step(self) -> None:
         pass
 
 

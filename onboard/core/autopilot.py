@@ -442,6 +442,14 @@ class Autopilot:
         """Arm now and start as soon as the navigation solution is valid (``--autostart``)."""
         self.autostart_pending = self.handle(c.Arm("autostart")).accepted
 
+    def before_step(self) -> None:
+        """The core's own command sources, judged like every other, before the step (and before the loop
+        hands out the plans, so a START's plan is flown by this step in lock-step): ``--autostart`` sends
+        its START once the navigation solution (of the last step) is valid."""
+        if self.autostart_pending and self.status.state is _ARMED and self.ready[0]:
+            self.autostart_pending = False
+            self.handle(c.Start(None, "autostart: navigation valid"))
+
     def set_current(self, index: int) -> bool:
         return self.handle(c.SetCurrent(index, "onboard")).accepted
 
@@ -542,9 +550,6 @@ class Autopilot:
             (prop_status is not None and prop_status.failsafe)
             or (fin_status is not None and fin_status.failsafe)
         )
-        if self.autostart_pending and self.status.state is _ARMED and self.ready[0]:
-            self.autostart_pending = False
-            self.handle(c.Start(None, "autostart: navigation valid"))
 
         fs_flags = _NO_FAILSAFE
         if self.encode_fault:

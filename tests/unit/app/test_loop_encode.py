@@ -55,6 +55,9 @@ class StubAutopilot:
     def note_overruns(self, consecutive: int) -> None:
         pass
 
+    def before_step(self) -> None:
+        pass
+
     def note_encode_fault(self, message_name: str, reason: str) -> None:
         self.faults.append((message_name, reason))
         self._abort = True

@@ -69,6 +69,8 @@ def tick(ap: Autopilot, t: float, *, jump: bool = False, **kw: float):  # type: 
     """One tick with the sensors at ``kw``; ``jump``: the filter takes the fix afresh (a test teleport)."""
     if jump:
         ap.nav_state = nav.NavFilterState.initial()
+    ap.before_step()  # what the loop does first: the core's own sources (autostart)
+    run_plans(ap)
     out = ap.step(sensors(t, **kw), t, DT)
     run_plans(ap)
     return out
@@ -78,7 +80,9 @@ def started(goals: tuple[Goal, ...], obstacles: tuple[Obstacle, ...] = (), **mis
     ap = Autopilot(core(**mission))
     assert ap.replace_mission(Mission(goals, obstacles)).accepted
     ap.request_autostart()
-    tick(ap, 0.0)
+    tick(ap, 0.0)  # navigation valid from this step on
+    ap.before_step()  # the autostart's START (and its plan, below) before the next step
+    run_plans(ap)
     return ap
 
 
@@ -87,13 +91,16 @@ def test_autostart_waits_for_valid_navigation_then_plans_off_the_tick() -> None:
     ap = Autopilot(core())
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
+    ap.before_step()
     out = ap.step({}, 0.0, DT)
-    assert out.status.state is S.ARMED and out.propeller_rps == 0.0
-    # WHEN navigation becomes valid THEN it starts, asks for a plan and holds still until it arrives
+    assert out.status.state is S.ARMED and out.propeller_rps == 0.0 and not ap.plan_pending
+    # WHEN navigation becomes valid THEN the next step starts, with its plan asked for before it
+    ap.before_step()
     out = ap.step(sensors(0.05), 0.05, DT)
-    assert out.status.state is S.RUNNING and ap.plan_pending and out.propeller_rps == 0.0
-    assert ap.path is None
-    assert run_plans(ap)
+    assert out.status.state is S.ARMED  # (valid from this step on)
+    ap.before_step()
+    assert ap.status.state is S.RUNNING and ap.plan_pending and ap.path is None
+    assert run_plans(ap)  # the loop's worker, before the step
     out = ap.step(sensors(0.1), 0.1, DT)
     assert ap.path is not None and ap.path.length_m > 19.0 and out.propeller_rps > 0.0
 
@@ -314,8 +321,10 @@ def test_a_plan_that_misses_its_deadline_holds_with_the_reason() -> None:
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
     ap.step(sensors(0.0), 0.0, DT)
+    ap.before_step()
     req = ap.take_plan_request()
     assert req is not None  # the worker never answers
+    ap.step(sensors(0.05), 0.05, DT)
     out = ap.step(sensors(0.3), 0.3, DT)
     assert out.status.state is S.HOLD and "deadline" in out.status.reason
     ap.plan_done(req.request_id, compute_plan(req))  # a late answer is dropped
