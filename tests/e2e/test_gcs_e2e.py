@@ -12,11 +12,9 @@ Every process is started by the test (or the runner) and stopped in a ``finally`
 
 from __future__ import annotations
 
-import contextlib
 import json
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,29 +22,12 @@ import pytest
 from pymavlink import mavutil
 
 from hil_sim.scenario import free_port, free_udp_port, mission_yaml, run_gcs
+from tests.e2e.procs import processes
 
 pytestmark = pytest.mark.e2e
 
 START = (-13.0, 0.0, 0.0)  # paper-straight
 GOAL = (15.0, 0.0, 0.0)
-
-
-@contextlib.contextmanager
-def _processes() -> Iterator[list[subprocess.Popen[Any]]]:
-    """Processes appended to the yielded list are terminated (then killed) on exit, whatever happens."""
-    procs: list[subprocess.Popen[Any]] = []
-    try:
-        yield procs
-    finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait(5)
 
 
 def _onboard_cmd(channel: str, mav_port: int, state_dir: Path, *extra: str) -> list[str]:
@@ -110,7 +91,7 @@ def test_monitor_shows_the_real_loop_telemetry(tmp_path: Path) -> None:
         sys.executable, "-m", "hil_sim", "run", "--mode=realtime", f"--channel={channel}",
         f"--start={START[0]},{START[1]},1.0,{START[2]}", "--duration=60", "--profile=basin",
     ]  # fmt: skip
-    with _processes() as procs, open(tmp_path / "procs.log", "w") as log:
+    with processes() as procs, open(tmp_path / "procs.log", "w") as log:
         procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
         procs.append(
             subprocess.Popen(
@@ -167,7 +148,7 @@ def test_mission_survives_kill_9_after_the_upload_ack(tmp_path: Path) -> None:
         f"--channel={channel}",
         "--duration=60",
     ]
-    with _processes() as procs, open(tmp_path / "onboard.log", "w") as log:
+    with processes() as procs, open(tmp_path / "onboard.log", "w") as log:
         procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
         first = subprocess.Popen(_onboard_cmd(channel, mav_port, state), stdout=log, stderr=subprocess.STDOUT)
         procs.append(first)

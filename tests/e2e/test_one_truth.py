@@ -18,7 +18,6 @@ disarmed heartbeat reported has ``propeller_cmd_rps`` 0 (the first tick of each 
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import json
 import math
@@ -26,7 +25,7 @@ import re
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,6 +36,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from groundstation.mavclient import CommandAck, Item, MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item, obstacle_item
 from hil_sim.scenario import free_port, free_udp_port, run_gcs
+from tests.e2e.procs import processes, stop
 
 pytestmark = pytest.mark.e2e
 
@@ -54,26 +54,6 @@ BOOT_S = 30.0  # wall time for a process to come up and the navigation to become
 
 
 # ---- processes -------------------------------------------------------------------------------------
-def _stop(proc: subprocess.Popen[Any]) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-
-
-@contextlib.contextmanager
-def _processes() -> Iterator[list[subprocess.Popen[Any]]]:
-    procs: list[subprocess.Popen[Any]] = []
-    try:
-        yield procs
-    finally:
-        for p in reversed(procs):
-            _stop(p)
-
-
 def _tail(path: Path, n: int = 25) -> str:
     text = path.read_text(errors="replace") if path.exists() else "(no file)"
     return f"--- {path.name} ---\n" + "\n".join(text.splitlines()[-n:])
@@ -132,7 +112,7 @@ class Rig:
 
     def stop_bench(self) -> None:
         if self.bench is not None:
-            _stop(self.bench)
+            stop(self.bench)
 
     def logs(self) -> str:
         return "\n".join(_tail(p) for p in sorted(self.dir.glob("*.log")))
@@ -284,7 +264,7 @@ def assert_disarmed_means_still(rows: list[dict[str, Any]], heartbeats: list[Any
 def test_every_answer_is_the_truth(tmp_path: Path) -> None:
     mission = tmp_path / "leg.yaml"
     mission.write_text("goals:\n  - {x_m: 10.0, y_m: 0.0, depth_m: 1.0, yaw_deg: 0.0}\n")
-    with _processes() as procs:
+    with processes() as procs:
         rig = Rig(tmp_path, procs)
         rig.start_firmware("--mission", str(mission))  # the bench comes later: the loop waits for the bus
         gs = Station(rig.mav_port, rig)
@@ -452,7 +432,7 @@ def _nan_mode_one_ack(gs: Station) -> None:
 # ---- 2: progress survives kill -9 ------------------------------------------------------------------
 def test_kill_9_mid_mission_resumes_at_the_next_goal(tmp_path: Path) -> None:
     g0, g1 = (10.0, 0.0), (120.0, 0.0)
-    with _processes() as procs:
+    with processes() as procs:
         rig = Rig(tmp_path, procs)
         rig.start_bench()
         rig.start_firmware()
@@ -528,7 +508,7 @@ def test_invalid_persisted_mission_is_set_aside(tmp_path: Path) -> None:
     item = {"frame": 1, "command": 16, "param1": 0.0, "param2": None, "param3": 0.0, "param4": None,
             "x": 100000, "y": 0, "z": None, "autocontinue": 1}  # fmt: skip
     (state / "mission.json").write_text(json.dumps({"version": 1, "items": [item]}))
-    with _processes() as procs:
+    with processes() as procs:
         rig = Rig(tmp_path, procs)
         rig.start_bench()
         # WHEN the firmware boots on it and a ground station connects
@@ -586,7 +566,7 @@ def test_bad_startup_missions_exit_2_naming_the_goal(tmp_path: Path) -> None:
             results[name] = (p.returncode, err)
     finally:
         for p in procs.values():
-            _stop(p)
+            stop(p)
     # THEN each exits 2 with one line on stderr that names the goal, and no traceback
     for name, (code, err) in results.items():
         lines = err.strip().splitlines()
