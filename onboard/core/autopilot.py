@@ -201,10 +201,6 @@ class Autopilot:
         out, self.notes = self.notes, []
         return out
 
-    def take_events(self) -> list[str]:
-        """The notes as plain lines (for logs and tests)."""
-        return [n.text for n in self.take_notes()]
-
     def _note(self, severity: c.Severity, text: str) -> None:
         self.notes.append(c.Note(severity, text))
 
@@ -449,9 +445,6 @@ class Autopilot:
         if self.autostart_pending and self.status.state is _ARMED and self.ready[0]:
             self.autostart_pending = False
             self.handle(c.Start(None, "autostart: navigation valid"))
-
-    def set_current(self, index: int) -> bool:
-        return self.handle(c.SetCurrent(index, "onboard")).accepted
 
     def note_overruns(self, consecutive: int) -> None:
         self.consecutive_overruns = consecutive

@@ -279,7 +279,7 @@ def test_a_goal_is_reached_only_within_the_arrival_radius_else_re_planned_then_h
     tick(ap, 0.1, x=20.1, y=2.0, jump=True)
     # THEN it is a miss: not COMPLETE, a re-plan to the same goal from where it is, with a note
     assert ap.status.state is S.RUNNING and ap.goals_reached == 0 and ap.attempt == 2
-    assert any("missed by 2.00 m" in t for t in ap.take_events())
+    assert any("missed by 2.00 m" in n.text for n in ap.take_notes())
     # WHEN it misses again THEN it holds with the reason (max_tries = 2)
     tick(ap, 0.15, x=20.1, y=2.0)
     ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
