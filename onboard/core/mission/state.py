@@ -16,7 +16,7 @@ Table (anything not listed is rejected)::
               disarm_forced -> IDLE                  abort, failsafe -> ABORT
     HOLD      resume, start -> RUNNING               disarm -> IDLE                 mission_replaced -> HOLD
               abort, failsafe -> ABORT
-    COMPLETE  arm -> ARMED (goal 0: fly it again)    disarm -> IDLE                 abort, failsafe -> ABORT
+    COMPLETE  arm -> ARMED (goal 0: fly it again)    disarm -> IDLE (goal 0)        abort, failsafe -> ABORT
               mission_replaced -> IDLE (surfaced) or ARMED (loitering: still armed)
     ABORT     disarm -> IDLE (operator acknowledges) mission_replaced -> ABORT (goal 0)
 
@@ -170,8 +170,8 @@ def transition(
         return Transition(replace(status, goal_index=done + 1, reason=reason), True, reason)
 
     index = status.goal_index
-    if event is E.ARM and status.state is S.COMPLETE:
-        index = 0  # fly the mission again
+    if status.state is S.COMPLETE and event in (E.ARM, E.DISARM, E.DISARM_FORCED):
+        index = 0  # a completed mission's progress is done: the next flight of it starts at goal 0
     elif event in (E.START, E.RESUME):
         index = status.goal_index if goal_index is None else goal_index
         if not 0 <= index < status.goal_count:

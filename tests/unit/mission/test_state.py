@@ -127,3 +127,12 @@ def test_resume_keeps_the_goal_index() -> None:
 def test_failsafe_reason_is_kept() -> None:
     tr = transition(MissionStatus(S.RUNNING, 0, 1), E.FAILSAFE, detail="depth 12.0 m beyond limit")
     assert tr.status.state is S.ABORT and "depth 12.0 m" in tr.status.reason
+
+
+@pytest.mark.parametrize("event", [E.DISARM, E.DISARM_FORCED])
+def test_disarm_after_complete_then_arm_and_start_flies_from_goal_zero(event: MissionEvent) -> None:
+    # (found with MAVProxy: disarm in COMPLETE, arm, start was DENIED "no goal 1 to fly")
+    idle = transition(MissionStatus(S.COMPLETE, 1, 1), event).status
+    assert (idle.state, idle.goal_index) == (S.IDLE, 0)
+    armed = transition(idle, E.ARM).status
+    assert transition(armed, E.START).status.state is S.RUNNING
