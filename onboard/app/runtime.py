@@ -93,13 +93,6 @@ def bus_limits_from_dbc() -> BusLimits:
     return BusLimits.from_ranges(command_ranges())
 
 
-def load_persisted_params(cfg: OnboardConfig) -> dict[str, float]:
-    """The ground-station parameter edits persisted in the MAVLink state directory ({} if none)."""
-    from onboard.adapters.mavlink.persistence import StateStore
-
-    return StateStore(cfg.mavlink.resolved_state_dir()).load_params()
-
-
 @dataclass(frozen=True)
 class BootConfig:
     """The configuration resolved at start-up (:func:`resolve_config`).
@@ -132,9 +125,6 @@ def _covered(path: str, keys: tuple[str, ...]) -> bool:
 
 
 def _with_core(cfg: OnboardConfig, core: CoreConfig) -> OnboardConfig:
-    names = {f.name for f in dataclasses.fields(cfg)}
-    if "core" in names:
-        return dataclasses.replace(cfg, core=core)  # type: ignore[call-arg, unused-ignore]
     return dataclasses.replace(cfg, **{f.name: getattr(core, f.name) for f in dataclasses.fields(core)})
 
 
@@ -171,8 +161,17 @@ def resolve_config(
 
     Raises ``ConfigError`` (one line) for a bad file or ``--set``, or a configured limit beyond the DBC.
     """
+    return resolve_built(build_config(config_path, sets), sets, persisted, bus_limits)
+
+
+def resolve_built(
+    configured: OnboardConfig,
+    sets: list[str],
+    persisted: Mapping[str, float],
+    bus_limits: BusLimits | None = None,
+) -> BootConfig:
+    """:func:`resolve_config` of a configuration already built from the file and ``sets``."""
     bus = bus_limits if bus_limits is not None else bus_limits_from_dbc()
-    configured = build_config(config_path, sets)
     check_against_bus(configured.core, bus)
     keys = _set_keys(sets)
     core = configured.core
@@ -266,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
         if store is not None:
             store.check_writable()
         persisted = store.load_params() if store is not None else {}
-        boot = resolve_config(args.config, sets, persisted)
+        boot = resolve_built(cfg0, sets, persisted)
         if store is not None and boot.dropped:  # a refused edit is not kept to be applied at a later boot
             try:
                 store.save_params({n: v for n, v in persisted.items() if n not in boot.dropped})

@@ -149,11 +149,19 @@ def is_home_item(item: MissionItem, seq: int, mission_type: int = TYPE_MISSION) 
 
 
 def check_home_item(item: MissionItem) -> int:
-    """Validity checks of a home item (no operating-area or depth check: it is not flown)."""
-    if abs(item.x) > 90 * GLOBAL_SCALE:
-        return mavlink.MAV_MISSION_INVALID_PARAM5_X
-    if abs(item.y) > 180 * GLOBAL_SCALE:
-        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
+    """Validity checks of a home item (no operating-area or depth check: it is not flown): the numbers of
+    :func:`check_item`, and an altitude that is a number."""
+    return _check_numbers(item, z_finite=True)
+
+
+def _check_numbers(item: MissionItem, *, z_finite: bool) -> int:
+    """The number checks every item passes: lat/lon within range in the global frames, param1..4 (and z)
+    NaN or finite (``z_finite``: z must be finite), x/y within int32."""
+    if item.frame != FRAME_LOCAL:
+        if abs(item.x) > 90 * GLOBAL_SCALE:
+            return mavlink.MAV_MISSION_INVALID_PARAM5_X
+        if abs(item.y) > 180 * GLOBAL_SCALE:
+            return mavlink.MAV_MISSION_INVALID_PARAM6_Y
     for value, code in (
         (item.param1, mavlink.MAV_MISSION_INVALID_PARAM1),
         (item.param2, mavlink.MAV_MISSION_INVALID_PARAM2),
@@ -162,8 +170,12 @@ def check_home_item(item: MissionItem) -> int:
     ):
         if not _is_nan_or_finite(value):
             return code
-    if not math.isfinite(item.z):
+    if not (math.isfinite(item.z) if z_finite else _is_nan_or_finite(item.z)):
         return mavlink.MAV_MISSION_INVALID_PARAM7
+    if not (-INT32_MAX - 1 <= item.x <= INT32_MAX):
+        return mavlink.MAV_MISSION_INVALID_PARAM5_X
+    if not (-INT32_MAX - 1 <= item.y <= INT32_MAX):
+        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
     return mavlink.MAV_MISSION_ACCEPTED
 
 
@@ -228,25 +240,7 @@ def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq:
         return mavlink.MAV_MISSION_UNSUPPORTED
     if item.frame not in SUPPORTED_FRAMES:
         return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
-    for value, code in (
-        (item.param1, mavlink.MAV_MISSION_INVALID_PARAM1),
-        (item.param2, mavlink.MAV_MISSION_INVALID_PARAM2),
-        (item.param3, mavlink.MAV_MISSION_INVALID_PARAM3),
-        (item.param4, mavlink.MAV_MISSION_INVALID_PARAM4),
-        (item.z, mavlink.MAV_MISSION_INVALID_PARAM7),
-    ):
-        if not _is_nan_or_finite(value):
-            return code
-    if item.frame != FRAME_LOCAL:
-        if abs(item.x) > 90 * GLOBAL_SCALE:
-            return mavlink.MAV_MISSION_INVALID_PARAM5_X
-        if abs(item.y) > 180 * GLOBAL_SCALE:
-            return mavlink.MAV_MISSION_INVALID_PARAM6_Y
-    if not (-INT32_MAX - 1 <= item.x <= INT32_MAX):
-        return mavlink.MAV_MISSION_INVALID_PARAM5_X
-    if not (-INT32_MAX - 1 <= item.y <= INT32_MAX):
-        return mavlink.MAV_MISSION_INVALID_PARAM6_Y
-    return mavlink.MAV_MISSION_ACCEPTED
+    return _check_numbers(item, z_finite=False)
 
 
 def goal_from_item(item: MissionItem, limits: MissionLimits) -> Goal:
