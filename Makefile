@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint unit bench clean venv
+.PHONY: demo test lint unit bench campaign clean venv
 
 venv: $(STAMP)
 
@@ -30,6 +30,10 @@ unit: $(STAMP)
 
 test: lint
 	$(BIN)/python -m pytest -q
+
+# A short campaign (the paper's scenarios x 5 seeds); prints where the report is, opens nothing.
+campaign: $(STAMP)
+	$(BIN)/auv-hil campaign hil_sim/campaigns/paper.yaml --out out/campaign/paper
 
 bench: $(STAMP)
 	$(BIN)/auv-bench --json bench.json

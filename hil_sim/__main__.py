@@ -13,6 +13,9 @@ The ISiMI100 hardware-in-the-loop bench.
              lock-step), errors next to the paper's, figures in out/demo/.
   bus-demo   two real processes exchange E2E-protected frames through the bench hub; prints a table.
   scenario   one of the paper's scenarios end to end with metrics (--json, --plot DIR).
+  campaign   fly a campaign spec (missions x seeds x currents x profiles x onboard overrides x vehicle
+             variants) in parallel (local processes or Ray); runs.csv, summary.json, report.html.
+  tune       tune onboard gains with optuna over a campaign spec (train and held-out runs).
   replay     play a recorded .blf/.asc frame log onto the bench bus (hosts the hub).
   run        host the bench CAN hub and fly the 6-DOF model: reads FIN_CMD / PROP_CMD (and SYNC_ACK in
              lock-step) from the bus; publishes AHRS, depth, DVL and position-fix frames at their sensor
@@ -32,6 +35,20 @@ def main(argv: list[str] | None = None) -> int:
     bd = sub.add_parser("bus-demo", help="two processes exchange protected frames through the hub")
     bd.add_argument("--count", type=int, default=200, help="SYNC frames to send (default 200)")
     bd.add_argument("--rate", type=float, default=100.0, help="SYNC rate in Hz (default 100)")
+    for name, text in (
+        ("campaign", "fly a campaign spec (python -m auv_campaign campaign --help)"),
+        ("tune", "tune onboard gains over a campaign spec (python -m auv_campaign tune --help)"),
+        ("scenario", "one of the paper's scenarios end to end"),
+        ("replay", "play a recorded frame log onto the bench bus"),
+        ("run", "host the bench hub and fly the 6-DOF model"),
+    ):
+        sub.add_parser(name, help=text, add_help=False)
+    if argv and argv[0] in ("campaign", "tune"):
+        # The campaigns fly the onboard core in this very process, which hil_sim may not import: they live
+        # in auv_campaign, the one package that imports both. Hand the process over to it.
+        import os
+
+        os.execv(sys.executable, [sys.executable, "-m", "auv_campaign", *argv])
     if argv and argv[0] == "replay":
         from hil_sim.replay import main as replay_main
 

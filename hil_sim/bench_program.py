@@ -437,28 +437,78 @@ def _should_stop(bench: Bench, cfg: HilConfig, result: BenchResult, stop_at_s: l
     return False
 
 
-def _run_lockstep(
-    bench: Bench, port: BusPort, cfg: HilConfig, stop: threading.Event, writer: Any, result: BenchResult
-) -> None:
-    period = bench.setup.control_period_s
-    tick = 0
-    next_wall = time.monotonic()
-    stop_at: list[float] = []
-    last_hb_s = -math.inf
-    while not stop.is_set():
+class LockstepBench:
+    """The bench's side of one lock-step period, in three calls (the loop of :func:`_run_lockstep`, and of
+    a campaign run that drives the onboard in the same thread):
+
+    1. :meth:`offer`: publish the sensor, status and heartbeat frames of this period, then SYNC;
+    2. :meth:`take` every frame that arrives, until it returns True (the onboard's SYNC_ACK of this tick);
+    3. :meth:`close_period`: start the clock when the onboard reports RUNNING, integrate one period, write
+       the truth row; True when the run should end (duration, a stop state).
+    """
+
+    def __init__(self, bench: Bench, port: BusPort, cfg: HilConfig, writer: Any, result: BenchResult) -> None:
+        self.bench, self.port, self.cfg, self.writer, self.result = bench, port, cfg, writer, result
+        self.period_s = bench.setup.control_period_s
+        self.tick = 0
+        self._offered: list[m.BusMessage] = []
+        self._stop_at: list[float] = []
+        self._last_hb_s = -math.inf
+
+    def offer(self) -> m.Sync:
+        bench, started = self.bench, self.result.started
         t = bench.state.t_s
-        started = result.started
         msgs: list[m.BusMessage] = []
         for meas in bench.pending if started else bench.idle_measurements():
             msgs.extend(sensor_frames(meas))
         bench.pending.clear()
-        msgs.extend(bench.status_frames(t, port.receiver.rejected_total))
-        if t - last_hb_s >= 1.0 - 1e-9 or (not started and tick % round(1.0 / period) == 0):
+        msgs.extend(bench.status_frames(t, self.port.receiver.rejected_total))
+        if t - self._last_hb_s >= 1.0 - 1e-9 or (not started and self.tick % round(1.0 / self.period_s) == 0):
             msgs.extend(_heartbeats(t, bench.node.watchdog.failsafe))
-            last_hb_s = t
-        port.send_all(msgs)
-        sync = m.Sync(tick & 0x0FFFFFFF, round(t, 3), t)
-        port.send(sync)
+            self._last_hb_s = t
+        sync = m.Sync(self.tick & 0x0FFFFFFF, round(t, 3), t)
+        msgs.append(sync)
+        self._offered = msgs
+        self.port.send_all(msgs)
+        return sync
+
+    def reoffer(self) -> None:
+        """Send this period's frames and SYNC again (before the start the onboard may not be connected yet;
+        it answers a repeated tick without ticking twice, and its first tick sees this period's frames)."""
+        self.port.send_all(self._offered)
+
+    def take(self, msg: m.BusMessage) -> bool:
+        """One frame from the onboard; True if it is the SYNC_ACK of this tick."""
+        if isinstance(msg, m.SyncAck):
+            return msg.tick == self.tick & 0x0FFFFFFF
+        self.result.onboard_state = _onboard_state(msg, self.result.onboard_state)
+        self.bench.node.take(msg)
+        return False
+
+    def close_period(self) -> bool:
+        result = self.result
+        if not result.started and result.onboard_state == "RUNNING":
+            result.started = True
+            result._t_start_wall = time.monotonic()
+            log.info("onboard mission running: simulated time starts")
+        cmd = self.bench.period(integrate=result.started)
+        self.tick += 1
+        result.ticks = self.tick
+        if not result.started:
+            return False
+        if self.writer is not None:
+            self.writer.writerow(self.bench.truth_row(cmd, result.onboard_state))
+        return _should_stop(self.bench, self.cfg, result, self._stop_at)
+
+
+def _run_lockstep(
+    bench: Bench, port: BusPort, cfg: HilConfig, stop: threading.Event, writer: Any, result: BenchResult
+) -> None:
+    steps = LockstepBench(bench, port, cfg, writer, result)
+    next_wall = time.monotonic()
+    while not stop.is_set():
+        started = result.started
+        steps.offer()
         now = time.monotonic()
         deadline = now + cfg.bench.echo_timeout_s
         resend_at = now + 0.5
@@ -470,39 +520,22 @@ def _run_lockstep(
                 return
             now = time.monotonic()
             if not started and now > resend_at:
-                # Before the start the onboard may not be connected yet: offer the same tick again
-                # (the onboard answers a repeated tick without ticking twice). Not on the clock.
-                port.send(sync)
+                # Before the start the onboard may not be connected yet: offer the same tick again.
+                steps.reoffer()
                 resend_at = now + 0.5
                 deadline = now + cfg.bench.echo_timeout_s
             elif now > deadline:
                 raise EchoTimeout(
-                    f"no SYNC_ACK for tick {tick} within {cfg.bench.echo_timeout_s:g} s (is auv-onboard "
-                    "running in lock-step on this bus?)"
+                    f"no SYNC_ACK for tick {steps.tick} within {cfg.bench.echo_timeout_s:g} s "
+                    "(is auv-onboard running in lock-step on this bus?)"
                 )
-            if msg is None:
-                continue
-            if isinstance(msg, m.SyncAck):
-                if msg.tick == tick & 0x0FFFFFFF:
-                    break
-                continue
-            result.onboard_state = _onboard_state(msg, result.onboard_state)
-            bench.node.take(msg)
-        if not result.started and result.onboard_state == "RUNNING":
-            result.started = True
-            result._t_start_wall = time.monotonic()
-            log.info("onboard mission running: simulated time starts")
-        cmd = bench.period(integrate=result.started)
-        tick += 1
-        result.ticks = tick
-        if result.started:
-            if writer is not None:
-                writer.writerow(bench.truth_row(cmd, result.onboard_state))
-            if _should_stop(bench, cfg, result, stop_at):
-                return
-        else:
+            if msg is not None and steps.take(msg):
+                break
+        if steps.close_period():
+            return
+        if not result.started:
             # Before the start, pace the SYNCs by the wall clock (nothing to simulate, no need to hurry).
-            next_wall += period
+            next_wall += steps.period_s
             delay = next_wall - time.monotonic()
             if delay > 0:
                 stop.wait(delay)

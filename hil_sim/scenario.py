@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from auv_common.cli import join_negative_values
-from onboard.protocol.conventions import wrap_pi
+from hil_sim.metrics import compute_metrics, read_truth
 
 DEPTH_M = 1.0
 UPLOAD_MODES = ("gcs", "file")
@@ -160,82 +160,6 @@ def planned_path(sc: Scenario, config: str, step_m: float = 0.05) -> dict[str, A
         raise RuntimeError(f"auv-onboard plan failed: {out.stderr.strip()}")
     result: dict[str, Any] = json.loads(out.stdout)
     return result
-
-
-# --- metrics (pure) --------------------------------------------------------------------------------
-def read_truth(path: str | Path) -> list[dict[str, float]]:
-    with open(path, newline="") as f:
-        rows = []
-        for r in csv.DictReader(f):
-            rows.append({k: float(v) for k, v in r.items() if k != "onboard_state"})
-        return rows
-
-
-def _project(polyline: list[tuple[float, float]], x: float, y: float, lo: int, hi: int) -> tuple[float, int]:
-    """Distance from (x, y) to the polyline segments lo..hi, and the index of the nearest segment."""
-    best, best_i = math.inf, lo
-    for i in range(max(lo, 0), min(hi, len(polyline) - 1)):
-        (x0, y0), (x1, y1) = polyline[i], polyline[i + 1]
-        dx, dy = x1 - x0, y1 - y0
-        seg2 = dx * dx + dy * dy
-        t = 0.0 if seg2 == 0.0 else max(0.0, min(1.0, ((x - x0) * dx + (y - y0) * dy) / seg2))
-        d = math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
-        if d < best:
-            best, best_i = d, i
-    return best, best_i
-
-
-def compute_metrics(
-    truth: list[dict[str, float]], samples: list[list[float]], goal: tuple[float, float, float]
-) -> dict[str, Any]:
-    """Arrival and tracking metrics from the truth rows and the planned polyline ([[x, y, yaw_deg], ...]).
-
-    Arrival: the first row whose along-track coordinate reaches the end of the path (the vehicle crosses
-    the line through the goal perpendicular to the arrival heading, near the end of the path). The final
-    errors are measured there, or at the last row (then ``completed`` is false). Cross-track: the distance
-    from the truth to the planned polyline, up to arrival.
-    """
-    poly = [(p[0], p[1]) for p in samples]
-    gx, gy, gyaw_deg = goal
-    gyaw = math.radians(gyaw_deg)
-    ux, uy = math.cos(gyaw), math.sin(gyaw)
-    idx = 0
-    cross: list[float] = []
-    arrival: dict[str, float] | None = None
-    near_end = max(len(poly) - 2, 0)
-    prev: dict[str, float] | None = None
-    prev_along = -math.inf
-    for row in truth:
-        along_goal = (row["x_m"] - gx) * ux + (row["y_m"] - gy) * uy
-        _, idx = _project(poly, row["x_m"], row["y_m"], idx - 20, idx + 200)
-        if idx >= near_end - 20 and along_goal >= 0.0:
-            # Interpolate to the crossing of the goal line, so the period's sampling adds no error.
-            arrival = row
-            if prev is not None and prev_along < 0.0 <= along_goal:
-                w = -prev_along / (along_goal - prev_along)
-                arrival = {k: prev[k] + w * (row[k] - prev[k]) for k in row if k != "yaw_deg"}
-                arrival["yaw_deg"] = prev["yaw_deg"] + w * math.degrees(
-                    wrap_pi(math.radians(row["yaw_deg"] - prev["yaw_deg"]))
-                )
-            cross.append(_project(poly, arrival["x_m"], arrival["y_m"], idx - 20, idx + 200)[0])
-            break
-        cross.append(_project(poly, row["x_m"], row["y_m"], idx - 20, idx + 200)[0])
-        prev, prev_along = row, along_goal
-    final = arrival if arrival is not None else (truth[-1] if truth else None)
-    if final is None:
-        raise ValueError("empty truth log")
-    ex, ey = gx - final["x_m"], gy - final["y_m"]
-    return {
-        "completed": arrival is not None,
-        "arrival_time_s": final["t_s"],
-        "final_position_error_m": math.hypot(ex, ey),
-        "final_x_error_m": ex,
-        "final_y_error_m": ey,
-        "final_depth_error_m": DEPTH_M - final["depth_m"],
-        "final_yaw_error_deg": math.degrees(wrap_pi(gyaw - math.radians(final["yaw_deg"]))),
-        "max_cross_track_m": max(cross) if cross else math.nan,
-        "rms_cross_track_m": math.sqrt(sum(c * c for c in cross) / len(cross)) if cross else math.nan,
-    }
 
 
 # --- running ---------------------------------------------------------------------------------------
@@ -406,7 +330,8 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
     onboard_summary = (
         json.loads((work / "onboard.json").read_text()) if (work / "onboard.json").exists() else {}
     )
-    metrics = compute_metrics(read_truth(truth), path["samples"], sc.goal)
+    metrics = compute_metrics(read_truth(truth), path["samples"], sc.goal, DEPTH_M)
+    metrics.pop("arrival_row")
     sim_time = float(bench.get("sim_time_s", 0.0))
     run_wall = float(bench.get("run_wall_time_s", 0.0)) or wall
     return {

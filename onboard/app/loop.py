@@ -186,6 +186,7 @@ class ControlLoop:
         self._csv_file: Any = None
         self._csv: Any = None
         self._last_sync_tick = -1
+        self._pending: list[BusMessage] = []  # lock-step: frames since the last SYNC
         self._last_tick_s = -math.inf
         # Called before each step (the links' commands reach the autopilot here, on the loop thread).
         self.before_tick: Callable[[float], None] | None = None
@@ -300,7 +301,6 @@ class ControlLoop:
         """One tick per SYNC frame until ``stop`` is set (or no SYNC for ``idle_timeout_s``)."""
         if self.plans is not None:
             self.plans.lockstep = True  # a plan is awaited before the next step: runs repeat exactly
-        pending: list[BusMessage] = []
         last_sync = time.monotonic()
         while not stop.is_set():
             msg = self.port.recv(0.2)
@@ -309,13 +309,19 @@ class ControlLoop:
                     log.warning("no SYNC for %.1f s; leaving lock-step", idle_timeout_s)
                     return
                 continue
-            if not isinstance(msg, Sync):
-                pending.append(msg)
-                continue
-            last_sync = time.monotonic()
-            self.take(pending, msg.sim_time_s)
-            pending.clear()
-            self.step_sync(msg)
+            if isinstance(msg, Sync):
+                last_sync = time.monotonic()
+            self.feed(msg)
+
+    def feed(self, msg: BusMessage) -> AutopilotOutput | None:
+        """Lock-step: one received frame. A SYNC ticks (:meth:`step_sync`) with the frames that arrived since
+        the previous one, stamped with its simulated time; any other frame waits for the next SYNC."""
+        if not isinstance(msg, Sync):
+            self._pending.append(msg)
+            return None
+        self.take(self._pending, msg.sim_time_s)
+        self._pending.clear()
+        return self.step_sync(msg)
 
     def step_sync(self, sync: Sync) -> AutopilotOutput | None:
         """Answer one SYNC: tick at its simulated time, send the commands, then echo the tick.

@@ -18,7 +18,8 @@ from typing import Any
 from can.interfaces.virtual import VirtualBus
 
 from hil_sim.bench_program import BenchConfig, HilConfig, InitialConfig, WaterCurrentConfig, run_bench
-from hil_sim.scenario import DEPTH_M, SCENARIOS, compute_metrics, read_truth
+from hil_sim.metrics import compute_metrics, read_truth
+from hil_sim.scenario import DEPTH_M, SCENARIOS
 from onboard.app.config import load_config
 from onboard.app.loop import ControlLoop
 from onboard.app.runtime import LISTEN

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hil_sim.scenario import compute_metrics
+from hil_sim.metrics import compute_metrics
 
 LINE = [[float(x), 0.0, 0.0] for x in range(0, 11)]  # a straight path north from (0, 0) to (10, 0)
 

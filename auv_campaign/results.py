@@ -1,0 +1,72 @@
+"""What one run yields: the columns of ``runs.csv`` and the cost that ranks runs (report) and trials (tune).
+
+Every figure comes from the simulator's truth, never from the onboard's own view (see
+:mod:`auv_campaign.metrics`). A row is a plain dict (JSON- and CSV-ready); ``None`` means "not defined for
+this run" (e.g. no obstacle: no clearance; never arrived: no time to goal) and is an empty CSV cell.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+#: The identity of a run: which mission, which sweep values.
+ID_COLUMNS = (
+    "run_id",
+    "mission",
+    "seed",
+    "current_speed_mps",
+    "current_dir_deg",
+    "profile",
+    "onboard",  # label of the onboard override set ("default" or "o1", ...)
+    "vehicle",  # label of the vehicle variant ("nominal" or "v1", ...)
+)
+#: What the run gave.
+RESULT_COLUMNS = (
+    "planned",  # the onboard accepted the mission and started it (its validator and planner agreed)
+    "completed",  # the truth crossed the last goal's line near the end of the nominal path
+    "success",  # completed, COMPLETE declared, within the spec's position and course bounds, no collision
+    "false_complete",  # COMPLETE declared while the truth was farther than the arrival radius from the goal
+    "final_position_error_m",
+    "final_course_error_deg",  # course over ground against the goal's yaw
+    "final_heading_error_deg",  # heading against the goal's yaw (crab in a current is expected)
+    "final_depth_error_m",
+    "max_cross_track_m",
+    "rms_cross_track_m",
+    "min_clearance_m",  # negative: inside an obstacle; None: no obstacle
+    "time_to_goal_s",  # None: never arrived
+    "control_effort_rad",  # RMS of the rudder and stern commands over the run
+    "fin_saturation_fraction",  # ticks with a fin command at its limit / ticks
+    "propeller_saturation_fraction",  # ticks with the propeller command at its maximum / ticks
+    "final_state",
+    "final_reason",
+    "time_limit_s",
+    "sim_time_s",
+    "ticks",
+    "wall_time_s",
+    "error",  # "" or the exception that ended the run (a bug, not a miss)
+)
+COLUMNS = ID_COLUMNS + RESULT_COLUMNS
+
+#: Weights of :func:`run_cost`: a failure weighs most, then the final error, cross-track, control effort.
+FAILURE_COST = 10.0
+ERROR_CAP_M = 5.0
+
+
+def run_cost(row: dict[str, Any]) -> float:
+    """The cost of one run (lower is better): ``10 * (not success) + min(final position error, 5 m)
+    + RMS cross-track (m, capped at 5) + 0.1 * control effort (rad)``; a run that did not plan or raised
+    costs ``10 + 5 + 5``."""
+    if row.get("error") or not row.get("planned"):
+        return FAILURE_COST + 2.0 * ERROR_CAP_M
+    fail = 0.0 if row.get("success") else FAILURE_COST
+    err = _capped(row.get("final_position_error_m"))
+    xte = _capped(row.get("rms_cross_track_m"))
+    effort = row.get("control_effort_rad") or 0.0
+    return fail + err + xte + 0.1 * float(effort)
+
+
+def _capped(value: Any) -> float:
+    if value is None or not math.isfinite(float(value)):
+        return ERROR_CAP_M
+    return min(float(value), ERROR_CAP_M)

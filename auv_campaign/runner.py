@@ -1,0 +1,273 @@
+"""One campaign run: the real onboard core against the real simulator in one process, in lock-step.
+
+The two sides are the programs' own pieces, wired as ``auv-hil scenario`` wires them over processes, but on a
+``virtual`` python-can bus of their own (one channel per run) and driven from one thread:
+
+- the bench: :class:`hil_sim.bench_program.Bench` (6-DOF model, actuator node with its watchdog, sensors)
+  through :class:`hil_sim.bench_program.LockstepBench` (the same three calls ``auv-hil run --mode lockstep``
+  loops over);
+- the onboard: :class:`onboard.app.loop.ControlLoop` with the real :class:`onboard.core.autopilot.Autopilot`,
+  fed frame by frame (:meth:`~onboard.app.loop.ControlLoop.feed`, what ``run_lockstep`` does);
+- the mission goes to the vehicle through its own doors: the validator every door runs
+  (:func:`onboard.core.mission.validate.check_mission`, from the vehicle's start pose), then
+  ``ReplaceMission`` and the autostart's ARM and START, each judged by ``Autopilot.handle``.
+
+Per period: the bench offers its frames and SYNC; the onboard takes what its bus delivered (the SYNC ticks
+it: commands, heartbeat, SYNC_ACK); the bench takes the onboard's frames up to the SYNC_ACK and integrates.
+Frames, codec, E2E checks, counters and staleness are those of the processes; only the transport differs.
+
+Every figure of the result comes from the simulator's truth (:mod:`auv_campaign.metrics`), never from the
+onboard's own view; the onboard's final state and reason are reported next to it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+from can.interfaces.virtual import VirtualBus
+
+from auv_campaign.metrics import run_row
+from auv_campaign.spec import RunSpec
+from hil_sim.bench_program import (
+    Bench,
+    BenchConfig,
+    BenchResult,
+    HilConfig,
+    InitialConfig,
+    LockstepBench,
+    WaterCurrentConfig,
+)
+from hil_sim.model.variants import vehicle_params
+from onboard.app.config import OnboardConfig
+from onboard.app.loop import ControlLoop
+from onboard.app.runtime import LISTEN, build_config, bus_limits_from_dbc
+from onboard.core.autopilot import Autopilot
+from onboard.core.mission.model import Goal, Mission, Obstacle
+from onboard.core.mission.validate import check_mission
+from onboard.core.planner.errors import PlannerError
+from onboard.core.planner.planner import plan
+from onboard.protocol import messages as m
+from onboard.protocol.codec import Codec
+from onboard.protocol.port import BusPort
+
+#: Onboard states that end a run (after ``STOP_DELAY_S`` more simulated seconds): nothing changes after
+#: them without an operator (HOLD waits for one).
+STOP_STATES = ("COMPLETE", "ABORT", "HOLD")
+STOP_DELAY_S = 2.0
+#: Simulated seconds the vehicle may take, before moving, to get a valid navigation solution and start.
+START_ALLOWANCE_S = 30.0
+#: Added to the nominal path time (length / planned speed): the start from rest.
+ACCELERATION_ALLOWANCE_S = 5.0
+PATH_STEP_M = 0.05  # the nominal path's sampling (as ``auv-hil scenario``)
+TRACK_EVERY = 4  # truth rows kept in a run's track (every 4th: 5 Hz at 20 Hz)
+
+_channels = itertools.count()
+
+
+@dataclass
+class RunOutput:
+    """What a run gives back: the row (``results.COLUMNS``), the decimated track and the nominal path."""
+
+    row: dict[str, Any]
+    track: dict[str, list[float]] = field(default_factory=dict)
+    path: list[list[float]] = field(default_factory=list)
+    truth: list[list[Any]] = field(default_factory=list)  # every truth row (``TRUTH_COLUMNS``); kept on ask
+
+    def to_json(self, spec: RunSpec) -> dict[str, Any]:
+        return {"run_id": spec.run_id, "spec": spec.to_dict(), "row": self.row, "track": self.track,
+                "path": self.path}  # fmt: skip
+
+
+class _Rows:
+    """A ``csv.writer`` look-alike that keeps the truth rows in memory."""
+
+    def __init__(self) -> None:
+        self.rows: list[list[Any]] = []
+
+    def writerow(self, row: list[Any]) -> None:
+        self.rows.append(row)
+
+
+def onboard_config(spec: RunSpec) -> OnboardConfig:
+    """The onboard configuration of a run: the packaged file, lock-step, no telemetry file, and the run's
+    overrides (``auv-onboard run --set`` syntax)."""
+    return build_config(None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', *spec.onboard_sets()])
+
+
+def mission_of(spec: RunSpec) -> Mission:
+    mis = spec.mission
+    goals = tuple(Goal(x, y, d, None if yaw is None else math.radians(yaw)) for x, y, d, yaw in mis.goals)
+    return Mission(goals, tuple(Obstacle(x, y, r) for x, y, r in mis.obstacles))
+
+
+def nominal_path(spec: RunSpec, cfg: OnboardConfig) -> tuple[list[list[float]], float]:
+    """The nominal path ``[[x_m, y_m, yaw_deg], ...]`` and its length (m): the onboard planner from the start
+    pose through every goal in order (leg i starts at goal i-1's pose), with the run's configuration.
+    Raises PlannerError when a leg cannot be planned."""
+    mis = spec.mission
+    x, y, depth, yaw_deg = mis.start
+    pose = (x, y, math.radians(yaw_deg))
+    samples: list[list[float]] = []
+    length = 0.0
+    obstacles = tuple(Obstacle(ox, oy, r) for ox, oy, r in mis.obstacles)
+    for gx, gy, gdepth, gyaw in mis.goals:
+        path = plan(
+            pose,
+            (gx, gy, None if gyaw is None else math.radians(gyaw)),
+            cfg.planner,
+            obstacles,
+            start_depth_m=depth,
+            goal_depth_m=gdepth,
+        )
+        n = max(1, math.ceil(path.length_m / PATH_STEP_M))
+        for i in range(0 if not samples else 1, n + 1):
+            p = path.sample(min(i * PATH_STEP_M, path.length_m))
+            samples.append([p.x_m, p.y_m, math.degrees(p.yaw_rad)])
+        length += path.length_m
+        pose, depth = (gx, gy, math.radians(samples[-1][2])), gdepth
+    return samples, length
+
+
+def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float) -> float:
+    """``time_limit_factor`` x the nominal path time (length / speed + the start from rest), simulated s."""
+    return round(spec.time_limit_factor * (length_m / speed_mps + ACCELERATION_ALLOWANCE_S), 2)
+
+
+def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | None = None) -> RunOutput:
+    """Fly one run (see the module docstring) and measure it against the nominal path.
+
+    ``timings``: if given, the wall seconds (perf counter) spent in the onboard core's step
+    (``onboard_core_s``), the simulator's period (``simulator_s``) and the whole lock-step drive
+    (``drive_s``; the rest is codec, E2E, bus and loop bookkeeping) are added to it, and ``ticks``.
+    """
+    t_wall = time.perf_counter()
+    cfg = onboard_config(spec)
+    mission = mission_of(spec)
+    start = spec.mission.start
+    try:
+        samples, length = nominal_path(spec, cfg)
+    except PlannerError:
+        samples, length = (
+            [],
+            math.hypot(spec.mission.goals[-1][0] - start[0], spec.mission.goals[-1][1] - start[1]),
+        )
+    limit = time_limit_s(spec, length, cfg.guidance.speed_mps)
+    hil = HilConfig(
+        bench=BenchConfig(
+            time_mode="lockstep",
+            control_rate_hz=cfg.loop.rate_hz,
+            sensor_profile=spec.profile,  # type: ignore[arg-type]
+            seed=spec.seed,
+            duration_s=limit,
+            stop_on_state=STOP_STATES,
+            stop_delay_s=STOP_DELAY_S,
+        ),
+        initial=InitialConfig(*start),
+        current=WaterCurrentConfig(spec.current_speed_mps, spec.current_dir_deg),
+    )
+    bench = Bench(hil, vehicle_params(dict(spec.vehicle_scale), dict(spec.vehicle_set)))
+    autopilot = Autopilot(cfg.core, bus_limits=bus_limits_from_dbc())
+    check = check_mission(mission, cfg.core, (start[0], start[1], start[2], math.radians(start[3])))
+    refused = "" if check.ok else f"mission refused: {check}"
+    if not refused:
+        verdict = autopilot.replace_mission(mission)
+        refused = "" if verdict.accepted else verdict.reason
+    if not refused:
+        autopilot.request_autostart()
+    truth = _Rows()
+    result = BenchResult()
+    if not refused:
+        if timings is not None:
+            _time_calls(autopilot, "step", timings, "onboard_core_s")
+            _time_calls(bench, "period", timings, "simulator_s")
+        t_drive = time.perf_counter()
+        _drive(bench, autopilot, cfg, hil, truth, result)
+        if timings is not None:
+            timings["drive_s"] = timings.get("drive_s", 0.0) + time.perf_counter() - t_drive
+            timings["ticks"] = timings.get("ticks", 0.0) + result.ticks
+    status = autopilot.status
+    row = run_row(
+        spec,
+        truth.rows,
+        samples,
+        planned=bool(samples) and result.started,
+        final_state=status.state.name,
+        final_reason=refused or status.reason,
+        time_limit_s=limit,
+        arrival_radius_m=cfg.mission.arrival_radius_m,
+        limits=cfg.control.limits,
+    )
+    row["sim_time_s"] = round(bench.state.t_s, 3)
+    row["ticks"] = result.ticks
+    row["wall_time_s"] = round(time.perf_counter() - t_wall, 3)
+    track = _track(truth.rows)
+    path = [[round(p[0], 3), round(p[1], 3)] for p in samples[:: max(1, round(0.25 / PATH_STEP_M))]]
+    return RunOutput(row, track, path, truth.rows if keep_truth else [])
+
+
+def _drive(
+    bench: Bench, autopilot: Autopilot, cfg: OnboardConfig, hil: HilConfig, truth: _Rows, result: BenchResult
+) -> None:
+    channel = f"campaign-{os.getpid()}-{next(_channels)}-{uuid.uuid4().hex[:8]}"
+    codec = Codec()
+    bench_listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+    bench_port = BusPort(VirtualBus(channel=channel), lambda: bench.state.t_s, bench_listen, codec)
+    onboard_port = BusPort(
+        VirtualBus(channel=channel), lambda: bench.state.t_s, [codec.frame_id(c) for c in LISTEN], Codec()
+    )
+    loop = ControlLoop(onboard_port, autopilot, cfg.loop)
+    if loop.plans is not None:
+        loop.plans.lockstep = True
+    steps = LockstepBench(bench, bench_port, hil, truth, result)
+    max_idle_ticks = round(START_ALLOWANCE_S * cfg.loop.rate_hz)
+    try:
+        while True:
+            steps.offer()
+            for msg in onboard_port.drain():
+                loop.feed(msg)
+            acked = False
+            for msg in bench_port.drain():
+                acked = steps.take(msg) or acked
+            if not acked:
+                raise RuntimeError(f"the onboard did not answer SYNC {steps.tick}")
+            if steps.close_period():
+                return
+            if not result.started and steps.tick >= max_idle_ticks:
+                return  # it never started: the autopilot's status says why
+    finally:
+        loop.close()
+        onboard_port.close()
+        bench_port.close()
+
+
+def _time_calls(obj: Any, name: str, timings: dict[str, float], key: str) -> None:
+    """Wrap ``obj.name`` (on this instance only) to add its wall time to ``timings[key]``."""
+    inner = getattr(obj, name)
+    clock = time.perf_counter
+
+    def timed(*args: Any, **kwargs: Any) -> Any:
+        t0 = clock()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            timings[key] = timings.get(key, 0.0) + clock() - t0
+
+    setattr(obj, name, timed)
+
+
+def _track(rows: list[list[Any]]) -> dict[str, list[float]]:
+    keep = rows[::TRACK_EVERY]
+    if rows and keep[-1] is not rows[-1]:
+        keep.append(rows[-1])
+    return {
+        "t_s": [round(r[0], 3) for r in keep],
+        "x_m": [round(r[1], 3) for r in keep],
+        "y_m": [round(r[2], 3) for r in keep],
+        "depth_m": [round(r[3], 3) for r in keep],
+    }
