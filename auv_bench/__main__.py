@@ -1,7 +1,9 @@
 """auv-bench: run each package's benchmark in its own process and merge the sections.
 
 Sections: can, planner, loop (onboard), simulator (hil_sim, plus the closed-loop lock-step speed over real
-processes, reported under loop), mission_upload (groundstation, against a real vehicle-side process).
+processes, reported under loop), mission_upload (groundstation, against a real vehicle-side process),
+campaign (auv_campaign: missions per minute with one and with all local workers against ``auv-hil scenario``
+over processes, and where the wall time of a lock-step tick goes).
 Prints one table per section and writes everything to ``--json PATH``. Figures are measured, never asserted;
 where a figure has a reference measured in the same run, a ratio is given too.
 """
@@ -16,8 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-PACKAGES = ("onboard.bench", "hil_sim.bench", "groundstation.bench")
-SECTIONS = ("can", "simulator", "planner", "loop", "mission_upload")
+PACKAGES = ("onboard.bench", "hil_sim.bench", "groundstation.bench", "auv_campaign.bench")
+SECTIONS = ("can", "simulator", "planner", "loop", "mission_upload", "campaign")
 
 
 def _run_package(module: str, quick: bool, only: list[str] | None) -> dict[str, dict]:

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from auv_campaign.results import COLUMNS, run_cost
+from auv_campaign.spec import current_label, seed_label
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -159,12 +160,15 @@ def _stats(values: Sequence[float]) -> dict[str, float | None]:
 
 
 def axis_label(row: Row, axis: str) -> str:
-    """The label of ``row`` on a sweep axis: ``mission``, ``str(seed)``, current as ``f"{speed:g}d{dir:g}"``
-    (m/s, deg), ``profile``, ``onboard``, ``vehicle``; any other axis: ``str(row[axis])``."""
+    """The label of ``row`` on a sweep axis, as the spec names it (:func:`auv_campaign.spec.seed_label`,
+    :func:`~auv_campaign.spec.current_label`; ``mission``, ``profile``, ``onboard``, ``vehicle`` as they are);
+    any other axis: ``str(row[axis])``."""
     if axis == "current":
         speed = _number(row.get("current_speed_mps")) or 0.0
         direction = _number(row.get("current_dir_deg")) or 0.0
-        return f"{speed:g}d{direction:g}"
+        return current_label(speed, direction)
+    if axis == "seed" and isinstance(row.get("seed"), int):
+        return seed_label(row["seed"])
     return str(row.get(axis))
 
 

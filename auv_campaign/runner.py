@@ -22,6 +22,7 @@ onboard's own view; the onboard's final state and reason are reported next to it
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import os
@@ -43,6 +44,7 @@ from hil_sim.bench_program import (
     LockstepBench,
     WaterCurrentConfig,
 )
+from hil_sim.model.params import VehicleParams
 from hil_sim.model.variants import vehicle_params
 from onboard.app.config import OnboardConfig
 from onboard.app.loop import ControlLoop
@@ -50,6 +52,7 @@ from onboard.app.runtime import LISTEN, build_config, bus_limits_from_dbc
 from onboard.core.autopilot import Autopilot
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.validate import check_mission
+from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.planner import plan
 from onboard.protocol import messages as m
@@ -97,7 +100,29 @@ class _Rows:
 def onboard_config(spec: RunSpec) -> OnboardConfig:
     """The onboard configuration of a run: the packaged file, lock-step, no telemetry file, and the run's
     overrides (``auv-onboard run --set`` syntax)."""
-    return build_config(None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', *spec.onboard_sets()])
+    return _onboard_config(tuple(spec.onboard_sets()))
+
+
+# What runs of one worker share, built once per process (all frozen, or stateless like the codec: the
+# alive counters live in each port's sender and receiver, not in the codec).
+@functools.lru_cache(maxsize=64)
+def _onboard_config(sets: tuple[str, ...]) -> OnboardConfig:
+    return build_config(None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', *sets])
+
+
+@functools.lru_cache(maxsize=64)
+def _vehicle(scale: tuple[tuple[str, float], ...], sets: tuple[tuple[str, Any], ...]) -> VehicleParams:
+    return vehicle_params(dict(scale), dict(sets))
+
+
+@functools.cache
+def _codec() -> Codec:
+    return Codec()
+
+
+@functools.cache
+def _bus_limits() -> BusLimits:
+    return bus_limits_from_dbc()
 
 
 def mission_of(spec: RunSpec) -> Mission:
@@ -171,8 +196,8 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         initial=InitialConfig(*start),
         current=WaterCurrentConfig(spec.current_speed_mps, spec.current_dir_deg),
     )
-    bench = Bench(hil, vehicle_params(dict(spec.vehicle_scale), dict(spec.vehicle_set)))
-    autopilot = Autopilot(cfg.core, bus_limits=bus_limits_from_dbc())
+    bench = Bench(hil, _vehicle(spec.vehicle_scale, spec.vehicle_set))
+    autopilot = Autopilot(cfg.core, bus_limits=_bus_limits())
     check = check_mission(mission, cfg.core, (start[0], start[1], start[2], math.radians(start[3])))
     refused = "" if check.ok else f"mission refused: {check}"
     if not refused:
@@ -215,11 +240,11 @@ def _drive(
     bench: Bench, autopilot: Autopilot, cfg: OnboardConfig, hil: HilConfig, truth: _Rows, result: BenchResult
 ) -> None:
     channel = f"campaign-{os.getpid()}-{next(_channels)}-{uuid.uuid4().hex[:8]}"
-    codec = Codec()
+    codec = _codec()
     bench_listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
     bench_port = BusPort(VirtualBus(channel=channel), lambda: bench.state.t_s, bench_listen, codec)
     onboard_port = BusPort(
-        VirtualBus(channel=channel), lambda: bench.state.t_s, [codec.frame_id(c) for c in LISTEN], Codec()
+        VirtualBus(channel=channel), lambda: bench.state.t_s, [codec.frame_id(c) for c in LISTEN], codec
     )
     loop = ControlLoop(onboard_port, autopilot, cfg.loop)
     if loop.plans is not None:

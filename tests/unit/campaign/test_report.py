@@ -18,8 +18,8 @@ from auv_campaign.results import COLUMNS, run_cost
 
 AXES: dict[str, list[str]] = {
     "mission": ["m0", "r0"],
-    "seed": ["0", "1"],
-    "current": ["0d0", "0.3d90"],
+    "seed": ["s0", "s1"],
+    "current": ["c0d0", "c0.3d90"],
     "profile": ["basin"],
     "onboard": ["default"],
     "vehicle": ["nominal"],
@@ -208,9 +208,9 @@ def test_csv_float_format(tmp_path: Path) -> None:
 
 def test_axis_labels() -> None:
     row = {"mission": "m0", "seed": 3, "current_speed_mps": 0.3, "current_dir_deg": 90.0, "profile": "sea"}
-    assert report.axis_label(row, "current") == "0.3d90"
-    assert report.axis_label({"current_speed_mps": 0.0, "current_dir_deg": 0.0}, "current") == "0d0"
-    assert report.axis_label(row, "seed") == "3"
+    assert report.axis_label(row, "current") == "c0.3d90"
+    assert report.axis_label({"current_speed_mps": 0.0, "current_dir_deg": 0.0}, "current") == "c0d0"
+    assert report.axis_label(row, "seed") == "s3"
     assert report.axis_label(row, "mission") == "m0"
     assert report.axis_label(row, "profile") == "sea"
 
@@ -238,9 +238,9 @@ def test_summary_counts_and_per_axis(runs: list[dict[str, Any]]) -> None:
         "median_max_cross_track_m": 1.0,  # the error run's; the not-planned one has none
     }
     current = s["per_axis"]["current"]
-    assert (current["0d0"]["runs"], current["0.3d90"]["runs"]) == (2, 3)
-    assert current["0d0"]["success_rate"] == pytest.approx(0.5)
-    assert s["per_axis"]["seed"]["0"]["runs"] == 3 and s["per_axis"]["seed"]["1"]["runs"] == 2
+    assert (current["c0d0"]["runs"], current["c0.3d90"]["runs"]) == (2, 3)
+    assert current["c0d0"]["success_rate"] == pytest.approx(0.5)
+    assert s["per_axis"]["seed"]["s0"]["runs"] == 3 and s["per_axis"]["seed"]["s1"]["runs"] == 2
     assert s["per_axis"]["profile"] == {
         "basin": {
             "runs": 5,
