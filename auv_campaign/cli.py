@@ -162,7 +162,7 @@ class _Progress:
 
 
 def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
-    from auv_campaign.execute import Executor, execute
+    from auv_campaign.execute import Executor, ExecutorError, execute
     from auv_campaign.report import write_all
 
     executor = Executor("ray" if args.ray is not None else "local", args.workers, args.ray or None)
@@ -176,6 +176,8 @@ def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
             records = execute(spec.runs, out, executor, on_record=bar.record)
         except KeyboardInterrupt:
             interrupted = True
+        except ExecutorError as exc:
+            return _fail(prog, str(exc), EXIT_RUN_ERROR)
     if interrupted:
         from auv_campaign.report import load_runs
 

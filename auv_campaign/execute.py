@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import concurrent.futures
 import json
+import logging
 import math
 import multiprocessing
 import os
 import signal
+import socket
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -30,6 +32,11 @@ from typing import Any
 
 from auv_campaign.results import COLUMNS
 from auv_campaign.spec import RunSpec
+
+
+class ExecutorError(RuntimeError):
+    """The executor could not start (e.g. no Ray cluster at the address given)."""
+
 
 BATCHES_PER_WORKER = 4
 MAX_BATCH = 16
@@ -75,7 +82,15 @@ def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
 
 def run_batch(spec_dicts: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Fly a batch of runs in order (the unit of work of both executors)."""
+    quiet_vehicle_logs()
     return [run_one(d) for d in spec_dicts]
+
+
+def quiet_vehicle_logs() -> None:
+    """Only errors of the onboard and the simulator reach stderr during a campaign: what the vehicle said
+    (a miss, a hold) is in each run's ``final_reason``, and warnings would tear the progress bar."""
+    for name in ("onboard", "hil_sim", "can"):
+        logging.getLogger(name).setLevel(logging.ERROR)
 
 
 def _ignore_sigint() -> None:
@@ -149,7 +164,19 @@ def _local(work: list[list[dict[str, Any]]], workers: int) -> Iterator[list[dict
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _ray_env() -> dict[str, Any]:
+def _check_reachable(address: str, timeout_s: float = 5.0) -> None:
+    """Fail fast, with one line, when nothing listens at ``HOST:PORT`` (Ray itself retries for minutes)."""
+    host, _, port = address.rpartition(":")
+    if address in ("auto", "local") or not port.isdigit():
+        return
+    try:
+        with socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        raise ExecutorError(f"cannot join the Ray cluster at {address}: {exc.strerror or exc}") from exc
+
+
+def ray_runtime_env() -> dict[str, Any]:
     """The packages a remote Ray node needs from this repository (its dependencies must be installed)."""
     import auv_campaign
     import auv_common
@@ -169,9 +196,19 @@ def _ray(work: Batches, workers: int, address: str | None) -> Iterator[list[dict
     started_here = not ray.is_initialized()
     if started_here:
         if address:
-            ray.init(address=address, runtime_env=_ray_env(), log_to_driver=False)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            _check_reachable(address)
+        try:
+            if address:
+                ray.init(address=address, runtime_env=ray_runtime_env(), log_to_driver=False)
+            else:  # a Ray of our own, even if a cluster runs on this machine
+                ray.init(address="local", num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        except Exception as exc:  # Ray's own errors span many lines: the operator gets one with the cause
+            where = f"the Ray cluster at {address}" if address else "a local Ray"
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            hint = ""
+            if "auth" in str(exc).lower() or "auth" in repr(exc.__cause__).lower():
+                hint = " (the cluster uses token authentication: set RAY_AUTH_MODE=token and its token)"
+            raise ExecutorError(f"cannot start {where}: {first}{hint}") from exc
     task = ray.remote(num_cpus=1)(run_batch)
     pending = [task.remote(b) for b in work]
     try:

@@ -268,7 +268,7 @@ def summarize(
 # --------------------------------------------------------------------------------------------- figures
 
 
-def _new_figure(width_in: float, height_in: float) -> Figure:
+def new_figure(width_in: float, height_in: float) -> Figure:
     """A figure not owned by pyplot (no global state), drawn with the Agg backend."""
     import matplotlib
 
@@ -278,7 +278,7 @@ def _new_figure(width_in: float, height_in: float) -> Figure:
     return Figure(figsize=(width_in, height_in), dpi=DPI, layout="constrained")
 
 
-def _png_img(fig: Figure, alt: str) -> str:
+def png_img(fig: Figure, alt: str) -> str:
     """``fig`` as an ``<img>`` tag with an inline base64 PNG."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
@@ -297,12 +297,12 @@ def _histogram_img(values: Sequence[float], title: str, xlabel: str) -> str:
     :data:`_LOG_SPAN_RATIO` (zeros drawn at half the least positive value); "no data" when empty."""
     import numpy as np
 
-    fig = _new_figure(4.2, 2.8)
+    fig = new_figure(4.2, 2.8)
     ax = fig.add_subplot()
     ax.set_title(f"{title} (n={len(values)})", fontsize=10)
     if not values:
         _no_data(ax)
-        return _png_img(fig, title)
+        return png_img(fig, title)
     data = np.asarray(values, dtype=float)
     positive = data[data > 0.0]
     if data.min() >= 0.0 and positive.size and positive.max() / positive.min() > _LOG_SPAN_RATIO:
@@ -317,14 +317,14 @@ def _histogram_img(values: Sequence[float], title: str, xlabel: str) -> str:
     ax.set_xlabel(xlabel, fontsize=9)
     ax.set_ylabel("runs", fontsize=9)
     ax.tick_params(labelsize=8)
-    return _png_img(fig, title)
+    return png_img(fig, title)
 
 
 def _bar_img(axis: str, stats: dict[str, dict[str, Any]]) -> str:
     """Success rate (%) per value of one sweep axis, each bar annotated ``success/runs``."""
     labels = list(stats)
     rates = [100.0 * float(stats[label]["success_rate"] or 0.0) for label in labels]
-    fig = _new_figure(min(12.0, max(4.2, 0.45 * len(labels) + 1.5)), 2.8)
+    fig = new_figure(min(12.0, max(4.2, 0.45 * len(labels) + 1.5)), 2.8)
     ax = fig.add_subplot()
     positions = list(range(len(labels)))
     ax.bar(positions, rates, color="tab:green", alpha=0.8)
@@ -336,7 +336,7 @@ def _bar_img(axis: str, stats: dict[str, dict[str, Any]]) -> str:
     ax.set_ylabel("success (%)", fontsize=9)
     ax.set_title(f"Success rate per {axis}", fontsize=10)
     ax.tick_params(axis="y", labelsize=8)
-    return _png_img(fig, f"success rate per {axis}")
+    return png_img(fig, f"success rate per {axis}")
 
 
 def _floats(values: Any) -> list[float]:
@@ -386,7 +386,7 @@ def plot_limits(
 
 def _track_img(run: Run | None, run_id: str) -> str:
     """:func:`track_figure` as an inline image."""
-    return _png_img(track_figure(run, run_id), f"track of {run_id}")
+    return png_img(track_figure(run, run_id), f"track of {run_id}")
 
 
 def save_track_png(run: Run, path: Path, dpi: int = 110) -> Path:
@@ -403,7 +403,7 @@ def track_figure(run: Run | None, run_id: str, size_in: float = 3.4) -> Figure:
     goal yaw), equal aspect with a span of at least :data:`MIN_TRACK_SPAN_M`."""
     from matplotlib.patches import Circle
 
-    fig = _new_figure(size_in, size_in)
+    fig = new_figure(size_in, size_in)
     ax = fig.add_subplot()
     ax.set_title(run_id, fontsize=7)
     if run is None:
@@ -473,7 +473,7 @@ def track_figure(run: Run | None, run_id: str, size_in: float = 3.4) -> Figure:
 # --------------------------------------------------------------------------------------------- report.html
 
 
-def _e(value: Any) -> str:
+def html_text(value: Any) -> str:
     """``value`` as escaped HTML text; ``None`` (and NaN) as a dash."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return _NONE_TEXT
@@ -491,14 +491,14 @@ def _pct(rate: Any, runs: int = 1) -> str:
     return f"{100.0 * number:.1f} %"
 
 
-def _table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
+def html_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
     """An HTML table; the cells are already escaped."""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>\n" for row in rows)
     return f"<table>\n<tr>{head}</tr>\n{body}</table>\n"
 
 
-_CSS = """
+CSS = """
 body { font-family: sans-serif; margin: 1.5em; color: #222; }
 table { border-collapse: collapse; margin: 0.5em 0 1em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 2px 8px; text-align: right; }
@@ -528,33 +528,33 @@ def write_report(
     name = str(summary.get("name", ""))
     parts: list[str] = [
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n',
-        f"<title>Campaign {html.escape(name)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n",
+        f"<title>Campaign {html.escape(name)}</title>\n<style>{CSS}</style>\n</head>\n<body>\n",
         f"<h1>Campaign {html.escape(name)}</h1>\n",
     ]
 
     n = int(summary.get("runs", 0))
     counts = [
-        ("runs", _e(n)),
-        ("errors (exceptions)", _e(summary.get("errors"))),
-        ("planned", _e(summary.get("planned"))),
-        ("completed", _e(summary.get("completed"))),
-        ("success", _e(summary.get("success"))),
-        ("false complete", _e(summary.get("false_complete"))),
+        ("runs", html_text(n)),
+        ("errors (exceptions)", html_text(summary.get("errors"))),
+        ("planned", html_text(summary.get("planned"))),
+        ("completed", html_text(summary.get("completed"))),
+        ("success", html_text(summary.get("success"))),
+        ("false complete", html_text(summary.get("false_complete"))),
         ("success rate", _pct(summary.get("success_rate"), n)),
     ]
-    parts += ["<h2>Counts</h2>\n", _table(("", "count"), counts)]
+    parts += ["<h2>Counts</h2>\n", html_table(("", "count"), counts)]
 
     per_axis: dict[str, dict[str, dict[str, Any]]] = summary.get("per_axis") or {}
     axis_rows = [
         (
             html.escape(axis),
             html.escape(label),
-            _e(s.get("runs")),
-            _e(s.get("success")),
+            html_text(s.get("runs")),
+            html_text(s.get("success")),
             _pct(s.get("success_rate"), int(s.get("runs") or 0)),
-            _e(s.get("false_complete")),
-            _e(s.get("median_final_position_error_m")),
-            _e(s.get("median_max_cross_track_m")),
+            html_text(s.get("false_complete")),
+            html_text(s.get("median_final_position_error_m")),
+            html_text(s.get("median_max_cross_track_m")),
         )
         for axis, labels in per_axis.items()
         for label, s in labels.items()
@@ -569,17 +569,17 @@ def write_report(
         "median final pos. error (m)",
         "median max cross-track (m)",
     )
-    parts += ["<h2>Success per sweep value</h2>\n", _table(header, axis_rows)]
+    parts += ["<h2>Success per sweep value</h2>\n", html_table(header, axis_rows)]
     bars = [_bar_img(axis, labels) for axis, labels in per_axis.items() if len(labels) > 1]
     if bars:
         parts += ['<div class="figs">\n', "\n".join(bars), "\n</div>\n"]
 
     metrics: dict[str, dict[str, Any]] = summary.get("metrics") or {}
     metric_rows = [
-        (html.escape(column), _e(s.get("median")), _e(s.get("p90")), _e(s.get("max")))
+        (html.escape(column), html_text(s.get("median")), html_text(s.get("p90")), html_text(s.get("max")))
         for column, s in metrics.items()
     ]
-    parts += ["<h2>Errors</h2>\n", _table(("metric", "median", "p90", "max"), metric_rows)]
+    parts += ["<h2>Errors</h2>\n", html_table(("metric", "median", "p90", "max"), metric_rows)]
     hists = [_histogram_img(_values(rows, column), title, label) for column, title, label in HISTOGRAMS]
     parts += ['<div class="figs">\n', "\n".join(hists), "\n</div>\n"]
 
@@ -590,25 +590,25 @@ def write_report(
         run = by_id.get(run_id)
         row: Row = run["row"] if run is not None else entry
         numbers = [
-            ("cost", _e(_number(entry.get("cost")))),
-            ("success", _e(bool(row.get("success")))),
-            ("planned", _e(row.get("planned"))),
-            ("completed", _e(row.get("completed"))),
-            ("false complete", _e(row.get("false_complete"))),
-            ("final state", _e(row.get("final_state"))),
-            ("final reason", _e(row.get("final_reason"))),
-            ("final position error (m)", _e(_number(row.get("final_position_error_m")))),
-            ("final course error (deg)", _e(_number(row.get("final_course_error_deg")))),
-            ("final heading error (deg)", _e(_number(row.get("final_heading_error_deg")))),
-            ("max cross-track (m)", _e(_number(row.get("max_cross_track_m")))),
-            ("min clearance (m)", _e(_number(row.get("min_clearance_m")))),
-            ("time to goal (s)", _e(_number(row.get("time_to_goal_s")))),
+            ("cost", html_text(_number(entry.get("cost")))),
+            ("success", html_text(bool(row.get("success")))),
+            ("planned", html_text(row.get("planned"))),
+            ("completed", html_text(row.get("completed"))),
+            ("false complete", html_text(row.get("false_complete"))),
+            ("final state", html_text(row.get("final_state"))),
+            ("final reason", html_text(row.get("final_reason"))),
+            ("final position error (m)", html_text(_number(row.get("final_position_error_m")))),
+            ("final course error (deg)", html_text(_number(row.get("final_course_error_deg")))),
+            ("final heading error (deg)", html_text(_number(row.get("final_heading_error_deg")))),
+            ("max cross-track (m)", html_text(_number(row.get("max_cross_track_m")))),
+            ("min clearance (m)", html_text(_number(row.get("min_clearance_m")))),
+            ("time to goal (s)", html_text(_number(row.get("time_to_goal_s")))),
         ]
         if row.get("error"):
-            numbers.append(("error", _e(row.get("error"))))
+            numbers.append(("error", html_text(row.get("error"))))
         parts += [
             f'<div class="run">\n{_track_img(run, run_id)}\n<div>\n<h3>{html.escape(run_id)}</h3>\n',
-            _table(("", ""), numbers),
+            html_table(("", ""), numbers),
             f"<pre><code>{html.escape(rerun_command(run_id))}</code></pre>\n</div>\n</div>\n",
         ]
     parts.append("</body>\n</html>\n")

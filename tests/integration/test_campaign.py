@@ -6,9 +6,14 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
+import re
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -208,3 +213,51 @@ def test_sea_profile_false_complete_is_judged_by_the_truth(tmp_path: Path) -> No
     assert row["final_state"] == "COMPLETE"
     assert row["false_complete"] is True and row["success"] is False
     assert row["final_position_error_m"] > 0.5
+
+
+def test_join_a_running_ray_cluster_by_its_address(tmp_path: Path) -> None:
+    # GIVEN a Ray cluster started the way an operator starts one (its own head process, token auth on)
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    ray_bin = str(Path(sys.executable).parent / "ray")
+    ray_tmp = tempfile.mkdtemp(prefix="ray-", dir="/tmp")  # short: Ray's socket paths must fit 107 chars
+    env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_USAGE_STATS_ENABLED": "0", "PYTHONUNBUFFERED": "1"}
+    head = subprocess.Popen(
+        [ray_bin, "start", "--head", "--block", f"--port={port}", "--num-cpus=2", "--include-dashboard=false",
+         f"--temp-dir={ray_tmp}"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, start_new_session=True,
+    )  # fmt: skip
+    try:
+        address = None
+        deadline = time.monotonic() + 60
+        assert head.stdout is not None
+        while address is None and time.monotonic() < deadline:
+            line = head.stdout.readline()
+            if not line:
+                break  # the head ended
+            found = re.search(r"ray start --address='([^']+)'", line)
+            address = found.group(1) if found else None
+        assert address, "the Ray head did not start"
+        spec = _write_spec(tmp_path, SMALL)
+        out = tmp_path / "out"
+        proc = subprocess.run(
+            [sys.executable, "-m", "hil_sim", "campaign", str(spec), "--out", str(out), "--ray", address,
+             "--no-progress", "--json"],
+            capture_output=True, text=True, timeout=180, check=False, env=env,
+        )  # fmt: skip
+        # THEN the runs went to the cluster and gave what the local executor gives
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        assert json.loads(proc.stdout)["executor"] == f"ray ({address})"
+        local = tmp_path / "local"
+        assert _campaign(str(spec), "--out", str(local), "--workers", "2").returncode == 0
+        assert _without_timing(_rows(out)) == _without_timing(_rows(local))
+    finally:  # the head and every Ray process it started share its process group: stop them all
+        os.killpg(head.pid, signal.SIGTERM)
+        try:
+            head.wait(30)
+        except subprocess.TimeoutExpired:
+            os.killpg(head.pid, signal.SIGKILL)
+            head.wait(10)
+        shutil.rmtree(ray_tmp, ignore_errors=True)
