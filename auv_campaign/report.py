@@ -570,6 +570,15 @@ def write_report(
         "median max cross-track (m)",
     )
     parts += ["<h2>Success per sweep value</h2>\n", html_table(header, axis_rows)]
+    legend_rows = [
+        (html.escape(axis), html.escape(label), html.escape(text))
+        for axis, labels in (summary.get("legend") or {}).items()
+        for label, text in labels.items()
+        if len(labels) > 1 or text not in ("packaged onboard.toml", "packaged isimi100.toml")
+    ]
+    if legend_rows:
+        legend_table = html_table(("axis", "label", "meaning"), legend_rows)
+        parts += ["<h3>What the labels stand for</h3>\n", legend_table]
     bars = [_bar_img(axis, labels) for axis, labels in per_axis.items() if len(labels) > 1]
     if bars:
         parts += ['<div class="figs">\n', "\n".join(bars), "\n</div>\n"]
@@ -623,13 +632,18 @@ def write_all(
     axes: dict[str, list[str]],
     name: str,
     rerun_command: Callable[[str], str],
+    legend: dict[str, dict[str, str]] | None = None,
 ) -> dict[str, Any]:
-    """Write ``runs.csv``, ``summary.json`` and ``report.html`` into ``out_dir``; return the summary."""
+    """Write ``runs.csv``, ``summary.json`` and ``report.html`` into ``out_dir``; return the summary.
+
+    ``legend``: axis -> label -> what it stands for (the onboard overrides and vehicle variants), kept in
+    the summary and shown in the report."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = [run["row"] for run in runs if isinstance(run.get("row"), dict)]
     write_csv(rows, out_dir / "runs.csv")
     summary = summarize(rows, axes, name, rerun_command=rerun_command)
+    summary["legend"] = {axis: dict(labels) for axis, labels in (legend or {}).items() if labels}
     (out_dir / "summary.json").write_text(
         json.dumps(summary, indent=2, allow_nan=False) + "\n", encoding="utf-8"
     )

@@ -217,13 +217,20 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
             timings["drive_s"] = timings.get("drive_s", 0.0) + time.perf_counter() - t_drive
             timings["ticks"] = timings.get("ticks", 0.0) + result.ticks
     status = autopilot.status
+    notes = autopilot.take_notes()
+    reason = refused or status.reason
+    if not refused and result.stop_reason.startswith("duration"):
+        last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
+        reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
+    elif not refused and not result.started:
+        reason = f"not started within {START_ALLOWANCE_S:g} s: {status.reason}"
     row = run_row(
         spec,
         truth.rows,
         samples,
         planned=bool(samples) and result.started,
         final_state=status.state.name,
-        final_reason=refused or status.reason,
+        final_reason=reason,
         time_limit_s=limit,
         arrival_radius_m=cfg.mission.arrival_radius_m,
         limits=cfg.control.limits,
