@@ -183,7 +183,7 @@ def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
 
         ids = {r.run_id for r in spec.runs}
         records = [r for r in load_runs(out) if r["run_id"] in ids]
-    summary = write_all(out, records, spec.axes, spec.name, rerun_command(args.spec, str(out)))
+    summary = write_all(out, records, spec.axes, spec.name, rerun_command(args.spec, str(out)), spec.legend)
     summary["wall_time_s"] = round(time.monotonic() - t0, 2)
     summary["executor"] = executor.describe()
     (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False))
