@@ -48,9 +48,10 @@ def campaign_parser() -> argparse.ArgumentParser:
         prog="auv-hil campaign",
         description=(
             "Fly every run of a campaign spec (missions x seeds x currents x sensor profiles x onboard "
-            "overrides x vehicle variants): the real onboard core against the real simulator, one process "
-            "per run over a virtual bus in lock-step. Writes OUT/runs/RUN_ID.json as runs finish, then "
-            "OUT/runs.csv, OUT/summary.json and OUT/report.html. Re-running with the same --out resumes."
+            "overrides x vehicle variants): the real onboard core against the real simulator, both in the "
+            "worker process of the run, over a virtual bus in lock-step. Writes OUT/runs/RUN_ID.json as "
+            "runs finish, then OUT/runs.csv, OUT/summary.json and OUT/report.html. Re-running with the "
+            "same --out resumes."
         ),
         epilog=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,

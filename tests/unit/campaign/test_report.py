@@ -398,3 +398,13 @@ def test_load_runs_sorted_and_skips_corrupt(
     assert by_id[runs[1]["run_id"]]["row"]["final_reason"] == "time limit <b>late</b>"
     assert "skipped 2" in caplog.text and "broken.json" in caplog.text
     assert report.load_runs(tmp_path / "nowhere") == []
+
+
+def test_report_says_what_the_labels_stand_for(tmp_path: Path, runs: list[dict[str, Any]]) -> None:
+    legend = {"vehicle": {"nominal": "packaged isimi100.toml", "v1": "scale fin_lift=0.7 <weak fins>"}}
+    summary = report.write_all(tmp_path, runs, AXES, "legend", rerun, legend)
+    assert summary["legend"] == legend
+    assert json.loads((tmp_path / "summary.json").read_text())["legend"] == legend
+    page = (tmp_path / "report.html").read_text()
+    assert "What the labels stand for" in page
+    assert "scale fin_lift=0.7 &lt;weak fins&gt;" in page
