@@ -31,13 +31,13 @@ import os
 import statistics
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 from can.interfaces.virtual import VirtualBus
 
 from auv_campaign.execute import Executor, default_workers, execute
-from auv_campaign.runner import fly
+from auv_campaign.runner import fly, timed
 from auv_campaign.spec import RunSpec, parse_spec
 from hil_sim.scenario import RunOptions, Scenario, run_scenario
 from onboard.protocol.codec import FrameReceiver, FrameSender
@@ -120,25 +120,12 @@ def _timed_methods(timings: dict[str, float]) -> Iterator[None]:
         (VirtualBus, "recv", "bus_s"),
     ]
     saved: list[tuple[type, str, Any]] = []
-    clock = time.perf_counter
-
-    def wrap(inner: Callable[..., Any], key: str, count: str | None) -> Callable[..., Any]:
-        def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = clock()
-            try:
-                return inner(*args, **kwargs)
-            finally:
-                timings[key] = timings.get(key, 0.0) + clock() - t0
-                if count is not None:
-                    timings[count] = timings.get(count, 0.0) + 1.0
-
-        return timed
 
     try:
         for cls, name, key in targets:
             saved.append((cls, name, cls.__dict__.get(name)))
             count = "bus_sends" if (cls, name) == (VirtualBus, "send") else None
-            setattr(cls, name, wrap(getattr(cls, name), key, count))
+            setattr(cls, name, timed(getattr(cls, name), timings, key, count))
         yield
     finally:
         for cls, name, own in reversed(saved):

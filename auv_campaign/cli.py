@@ -171,19 +171,21 @@ def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     interrupted = False
     show = not args.no_progress and not args.json
-    records: list[dict[str, Any]] = []
+    seen: dict[str, dict[str, Any]] = {}  # every record of this spec, resumed or flown (also on Ctrl-C)
+
     with _Progress(len(spec.runs), spec.name, show) as bar:
+
+        def on_record(record: dict[str, Any]) -> None:
+            seen[record["run_id"]] = record
+            bar.record(record)
+
         try:
-            records = execute(spec.runs, out, executor, on_record=bar.record)
+            execute(spec.runs, out, executor, on_record=on_record)
         except KeyboardInterrupt:
             interrupted = True
         except ExecutorError as exc:
             return _fail(prog, str(exc), EXIT_RUN_ERROR)
-    if interrupted:
-        from auv_campaign.report import load_runs
-
-        ids = {r.run_id for r in spec.runs}
-        records = [r for r in load_runs(out) if r["run_id"] in ids]
+    records = [seen[r.run_id] for r in spec.runs if r.run_id in seen]
     summary = write_all(out, records, spec.axes, spec.name, rerun_command(args.spec, str(out)), spec.legend)
     summary["wall_time_s"] = round(time.monotonic() - t0, 2)
     summary["executor"] = executor.describe()

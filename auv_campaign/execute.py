@@ -7,16 +7,22 @@
   repository's packages with the tasks so the nodes need only the dependencies): one Ray task per batch of
   runs. Scheduling, transport and retries are Ray's.
 
-Runs go out in batches (a few per worker, so the progress bar moves and a lost worker costs little). Each
-finished run is written at once to ``OUT/runs/RUN_ID.json`` (written to a temporary name, then renamed): a
-run whose file exists with the same spec is skipped next time (resumption), and Ctrl-C keeps every finished
-run. A run is independent of every other and of the executor (its own bus channel, seeded noise, lock-step
-time), so the same spec gives the same results whatever the executor and the number of workers.
+Locally each run is a task of its own; on Ray runs go out in batches (a few per worker: a task costs a
+few ms). Each run is written as soon as its result is back, to ``OUT/runs/RUN_ID.json`` (a temporary
+name, then renamed). Resumption skips a run whose file holds a complete record of the same run: the same
+spec and the same fingerprint (:func:`fingerprint`: the effective onboard configuration, the vehicle model
+and the code), so a changed gain in ``onboard.toml`` or a changed model re-flies it. Ctrl-C saves every
+result already back (locally: the runs in flight finish first; on Ray: whole batches) and then stops. A
+run is independent of every other and of the executor (its own bus channel, seeded noise, lock-step time),
+so the same spec gives the same results whatever the executor and the number of workers.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
+import functools
+import hashlib
 import json
 import logging
 import math
@@ -57,18 +63,13 @@ def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
 
     spec = RunSpec.from_dict(spec_dict)
     try:
-        return fly(spec).to_json(spec)
+        record = fly(spec).to_json(spec)
+        record["fingerprint"] = fingerprint(spec)
+        return record
     except Exception as exc:
         row: dict[str, Any] = {c: None for c in COLUMNS}
+        row.update(spec.identity())
         row.update(
-            run_id=spec.run_id,
-            mission=spec.mission.name,
-            seed=spec.seed,
-            current_speed_mps=spec.current_speed_mps,
-            current_dir_deg=spec.current_dir_deg,
-            profile=spec.profile,
-            onboard=spec.onboard_label,
-            vehicle=spec.vehicle_label,
             planned=False,
             completed=False,
             success=False,
@@ -78,6 +79,33 @@ def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
         tb = traceback.format_exc(limit=6)
         return {"run_id": spec.run_id, "spec": spec_dict, "row": row, "track": {}, "path": [],
                 "traceback": tb}  # fmt: skip
+
+
+def fingerprint(spec: RunSpec) -> str:
+    """What a run's result depends on beyond its spec: the effective onboard configuration (the packaged
+    ``onboard.toml`` with the run's overrides), the vehicle model of its variant, and the code (every source
+    and data file of onboard, hil_sim, auv_campaign and auv_common). A short hash."""
+    from auv_campaign.runner import onboard_config, vehicle_of
+
+    text = "\n".join((_code_hash(), repr(onboard_config(spec)), repr(vehicle_of(spec).config)))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@functools.cache
+def _code_hash() -> str:
+    import auv_campaign
+    import auv_common
+    import hil_sim
+    import onboard
+
+    digest = hashlib.sha256()
+    for package in (auv_campaign, auv_common, hil_sim, onboard):
+        root = Path(str(package.__file__)).parent
+        for path in sorted(root.rglob("*")):
+            if path.suffix in (".py", ".toml", ".dbc", ".yaml") and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(root.parent)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()
 
 
 def run_batch(spec_dicts: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -112,25 +140,29 @@ def save_run(out_dir: Path, record: dict[str, Any]) -> None:
     path = run_path(out_dir, record["run_id"])
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(record, allow_nan=False, default=_json_default))
+    tmp.write_text(json.dumps(record, allow_nan=False, default=str))
     os.replace(tmp, path)
 
 
-def _json_default(value: Any) -> Any:
-    if isinstance(value, float):  # pragma: no cover - floats are native; numpy scalars come here
-        return float(value)
-    return str(value)
-
-
 def finished(out_dir: Path, spec: RunSpec) -> dict[str, Any] | None:
-    """The saved record of ``spec`` if it exists, reads, and was flown with this very spec (else None)."""
-    path = run_path(out_dir, spec.run_id)
+    """The saved record of ``spec`` if it is complete and was flown with this very spec, configuration, model
+    and code (:func:`fingerprint`), and did not raise; else None (fly it again)."""
     try:
-        record: dict[str, Any] = json.loads(path.read_text())
+        record = json.loads(run_path(out_dir, spec.run_id).read_text())
     except (OSError, ValueError):
         return None
-    if record.get("spec") != json.loads(json.dumps(spec.to_dict())) or record.get("row", {}).get("error"):
-        return None  # another spec under this id, or a run that raised: fly it again
+    if not isinstance(record, dict):
+        return None
+    row = record.get("row")
+    if (
+        not isinstance(row, dict)
+        or any(c not in row for c in COLUMNS)
+        or row.get("run_id") != spec.run_id
+        or row.get("error")
+        or record.get("spec") != json.loads(json.dumps(spec.to_dict()))
+        or record.get("fingerprint") != fingerprint(spec)
+    ):
+        return None
     return record
 
 
@@ -149,25 +181,37 @@ class Executor:
         return f"{self.workers} local process{'es' if self.workers != 1 else ''}"
 
 
-def _local(work: list[list[dict[str, Any]]], workers: int) -> Iterator[list[dict[str, Any]]]:
+Deliver = Callable[[dict[str, Any]], None]
+
+
+def _local(work: list[dict[str, Any]], workers: int, deliver: Deliver) -> None:
+    """One task per run. On KeyboardInterrupt the runs in flight finish, every result back is delivered,
+    then the interrupt goes on."""
     if workers <= 1:
-        for batch in work:
-            yield run_batch(batch)
+        for item in work:
+            deliver(run_one(item))
         return
     ctx = multiprocessing.get_context("spawn")
     pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_ignore_sigint)
+    futures = [pool.submit(run_one, item) for item in work]
+    delivered: set[concurrent.futures.Future[dict[str, Any]]] = set()
     try:
-        futures = [pool.submit(run_batch, b) for b in work]
         for fut in concurrent.futures.as_completed(futures):
-            yield fut.result()
+            delivered.add(fut)
+            deliver(fut.result())
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+        for fut in futures:
+            if fut not in delivered and fut.done() and not fut.cancelled() and fut.exception() is None:
+                deliver(fut.result())
 
 
 def _check_reachable(address: str, timeout_s: float = 5.0) -> None:
-    """Fail fast, with one line, when nothing listens at ``HOST:PORT`` (Ray itself retries for minutes)."""
-    host, _, port = address.rpartition(":")
-    if address in ("auto", "local") or not port.isdigit():
+    """Fail fast, with one line, when nothing listens at ``[ray://]HOST:PORT`` (Ray retries for minutes)."""
+    bare = address.removeprefix("ray://")
+    host, _, port = bare.rpartition(":")
+    host = host.strip("[]")
+    if bare in ("auto", "local") or not port.isdigit():
         return
     try:
         with socket.create_connection((host or "127.0.0.1", int(port)), timeout=timeout_s):
@@ -187,40 +231,60 @@ def ray_runtime_env() -> dict[str, Any]:
     return {"py_modules": [str(Path(str(p.__file__)).parent) for p in packages]}
 
 
-Batches = list[list[dict[str, Any]]]
-
-
-def _ray(work: Batches, workers: int, address: str | None) -> Iterator[list[dict[str, Any]]]:
+@contextlib.contextmanager
+def ray_session(workers: int, address: str | None) -> Iterator[None]:
+    """Ray for the block: a local Ray of our own with ``workers`` CPUs (even beside a cluster on this
+    machine), or the cluster at ``address`` (this repository's packages shipped with the tasks). Raises
+    :class:`ExecutorError` with one line when it cannot start. Already initialised: used as it is."""
     import ray
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        if address:
-            _check_reachable(address)
-        try:
-            if address:
-                ray.init(address=address, runtime_env=ray_runtime_env(), log_to_driver=False)
-            else:  # a Ray of our own, even if a cluster runs on this machine
-                ray.init(address="local", num_cpus=workers, include_dashboard=False, log_to_driver=False)
-        except Exception as exc:  # Ray's own errors span many lines: the operator gets one with the cause
-            where = f"the Ray cluster at {address}" if address else "a local Ray"
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            hint = ""
-            if "auth" in str(exc).lower() or "auth" in repr(exc.__cause__).lower():
-                hint = " (the cluster uses token authentication: set RAY_AUTH_MODE=token and its token)"
-            raise ExecutorError(f"cannot start {where}: {first}{hint}") from exc
-    task = ray.remote(num_cpus=1)(run_batch)
-    pending = [task.remote(b) for b in work]
+    if ray.is_initialized():
+        yield
+        return
+    if address:
+        _check_reachable(address)
     try:
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            for ref in done:
-                yield ray.get(ref)
+        if address:
+            ray.init(address=address, runtime_env=ray_runtime_env(), log_to_driver=False)
+        else:
+            ray.init(address="local", num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    except Exception as exc:  # Ray's own errors span many lines: the operator gets one with the cause
+        where = f"the Ray cluster at {address}" if address else "a local Ray"
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        hint = ""
+        if "auth" in str(exc).lower() or "auth" in repr(exc.__cause__).lower():
+            hint = " (the cluster uses token authentication: set RAY_AUTH_MODE=token and its token)"
+        raise ExecutorError(f"cannot start {where}: {first}{hint}") from exc
+    try:
+        yield
     finally:
-        for ref in pending:
-            ray.cancel(ref, force=True)
-        if started_here:
-            ray.shutdown()
+        ray.shutdown()
+
+
+def _ray(work: list[list[dict[str, Any]]], workers: int, address: str | None, deliver: Deliver) -> None:
+    """One Ray task per batch. On KeyboardInterrupt the batches already back are delivered, the others
+    cancelled."""
+    import ray
+
+    with ray_session(workers, address):
+        task = ray.remote(num_cpus=1)(run_batch)
+        pending = [task.remote(b) for b in work]
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    for record in ray.get(ref):
+                        deliver(record)
+        except KeyboardInterrupt:
+            done, pending = ray.wait(pending, num_returns=len(pending), timeout=0)
+            for ref in done:
+                with contextlib.suppress(Exception):
+                    for record in ray.get(ref):
+                        deliver(record)
+            raise
+        finally:
+            for ref in pending:
+                ray.cancel(ref, force=True)
 
 
 def execute(
@@ -229,10 +293,19 @@ def execute(
     executor: Executor,
     on_record: Callable[[dict[str, Any]], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Fly ``runs`` (those not already finished in ``out_dir``), saving each record as it comes; return all
-    records in the order of ``runs``. ``on_record`` is called for every record, resumed ones included.
-    KeyboardInterrupt propagates after the finished runs are saved."""
+    """Fly ``runs`` (those not already finished in ``out_dir``), saving each record as it comes back; return
+    all records in the order of ``runs``. ``on_record`` is called for every record, resumed ones included
+    (on Ctrl-C it has seen every record saved). KeyboardInterrupt propagates after the results back are
+    saved."""
     records: dict[str, dict[str, Any]] = {}
+
+    def deliver(record: dict[str, Any]) -> None:
+        if out_dir is not None:
+            save_run(out_dir, record)
+        records[record["run_id"]] = record
+        if on_record is not None:
+            on_record(record)
+
     todo: list[dict[str, Any]] = []
     for spec in runs:
         old = finished(out_dir, spec) if out_dir is not None else None
@@ -242,17 +315,8 @@ def execute(
                 on_record(old)
         else:
             todo.append(spec.to_dict())
-    work = batches(todo, executor.workers)
-    stream = (
-        _ray(work, executor.workers, executor.address)
-        if executor.kind == "ray"
-        else _local(work, executor.workers)
-    )
-    for batch in stream:
-        for record in batch:
-            if out_dir is not None:
-                save_run(out_dir, record)
-            records[record["run_id"]] = record
-            if on_record is not None:
-                on_record(record)
+    if executor.kind == "ray":
+        _ray(batches(todo, executor.workers), executor.workers, executor.address, deliver)
+    else:
+        _local(todo, executor.workers, deliver)
     return [records[s.run_id] for s in runs if s.run_id in records]

@@ -1,7 +1,9 @@
 """The figures of one run, from the simulator's truth rows (``hil_sim.bench_program.TRUTH_COLUMNS``).
 
 Arrival, final errors and cross-track are :func:`hil_sim.metrics.compute_metrics` (the judge of
-``auv-hil scenario`` too) against the nominal path to the last goal. Added here:
+``auv-hil scenario`` too) against the nominal path to the last goal, at the goal-line crossing the vehicle
+claimed when it declared COMPLETE (the last one up to a second after; after a miss and a re-plan the truth
+crosses twice), else at the first crossing. Added here:
 
 - ``success``: the truth arrived (crossed the last goal's line), the onboard declared COMPLETE, and at the
   crossing the position error is within ``success.position_m`` and the course over ground within
@@ -31,6 +33,7 @@ _RUD, _SP, _SS, _PROP = (
     _COL[k] for k in ("rudder_cmd_rad", "stern_port_cmd_rad", "stern_starboard_cmd_rad", "propeller_cmd_rps")
 )
 _STATE = _COL["onboard_state"]
+COMPLETE_MARGIN_ROWS = 20  # truth rows (1 s at 20 Hz) after the first COMPLETE searched for the crossing
 SATURATION_TOLERANCE = 1e-4  # rad or rev/s below the limit that still counts as "at the limit"
 
 
@@ -52,14 +55,7 @@ def run_row(
 ) -> dict[str, Any]:
     """One row of ``runs.csv`` (``results.COLUMNS`` without the timing of the run itself)."""
     row: dict[str, Any] = {
-        "run_id": spec.run_id,
-        "mission": spec.mission.name,
-        "seed": spec.seed,
-        "current_speed_mps": spec.current_speed_mps,
-        "current_dir_deg": spec.current_dir_deg,
-        "profile": spec.profile,
-        "onboard": spec.onboard_label,
-        "vehicle": spec.vehicle_label,
+        **spec.identity(),
         "planned": planned,
         "completed": False,
         "success": False,
@@ -84,7 +80,11 @@ def run_row(
         return row
     gx, gy, gdepth, gyaw = spec.mission.goals[-1]
     rows = [{"t_s": r[_T], "x_m": r[_X], "y_m": r[_Y], "depth_m": r[_D], "yaw_deg": r[_YAW]} for r in truth]
-    met = compute_metrics(rows, samples, (gx, gy, gyaw), gdepth)
+    complete_at = next((k for k, r in enumerate(truth) if r[_STATE] == "COMPLETE"), None)
+    # Judged at the crossing the vehicle claimed (after a miss it crosses again): the last one up to a
+    # second after it first said COMPLETE (its estimate may cross a tick before the truth does).
+    until = None if complete_at is None else complete_at + COMPLETE_MARGIN_ROWS
+    met = compute_metrics(rows, samples, (gx, gy, gyaw), gdepth, until_row=until)
     course = _finite(met["final_course_error_deg"])
     row.update(
         completed=met["completed"],
@@ -111,7 +111,7 @@ def run_row(
     row["propeller_saturation_fraction"] = (
         sum(1 for r in truth if r[_PROP] >= limits.propeller_max_rps - SATURATION_TOLERANCE) / n
     )
-    first_complete = next((r for r in truth if r[_STATE] == "COMPLETE"), None)
+    first_complete = truth[complete_at] if complete_at is not None else None
     if first_complete is not None:
         miss_m = math.hypot(first_complete[_X] - gx, first_complete[_Y] - gy)
         row["false_complete"] = miss_m > arrival_radius_m

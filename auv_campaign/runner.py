@@ -8,9 +8,11 @@ The two sides are the programs' own pieces, wired as ``auv-hil scenario`` wires 
   loops over);
 - the onboard: :class:`onboard.app.loop.ControlLoop` with the real :class:`onboard.core.autopilot.Autopilot`,
   fed frame by frame (:meth:`~onboard.app.loop.ControlLoop.feed`, what ``run_lockstep`` does);
-- the mission goes to the vehicle through its own doors: the validator every door runs
-  (:func:`onboard.core.mission.validate.check_mission`, from the vehicle's start pose), then
-  ``ReplaceMission`` and the autostart's ARM and START, each judged by ``Autopilot.handle``.
+- the mission goes to the vehicle as through its MAVLink door: the validator every door runs
+  (:func:`onboard.core.mission.validate.check_mission`, without the vehicle's pose: leg 0 is planned at
+  START from where the vehicle is), then ``ReplaceMission`` and the autostart's ARM and START, each judged
+  by ``Autopilot.handle``. A mission the vehicle refuses, or cannot plan at START (it holds), is a run with
+  ``planned = false`` and the vehicle's reason.
 
 Per period: the bench offers its frames and SYNC; the onboard takes what its bus delivered (the SYNC ticks
 it: commands, heartbeat, SYNC_ACK); the bench takes the onboard's frames up to the SYNC_ACK and integrates.
@@ -28,6 +30,7 @@ import math
 import os
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -67,6 +70,7 @@ STOP_DELAY_S = 2.0
 START_ALLOWANCE_S = 30.0
 #: Added to the nominal path time (length / planned speed): the start from rest.
 ACCELERATION_ALLOWANCE_S = 5.0
+MIN_TIME_LIMIT_S = 1.0
 PATH_STEP_M = 0.05  # the nominal path's sampling (as ``auv-hil scenario``)
 TRACK_EVERY = 4  # truth rows kept in a run's track (every 4th: 5 Hz at 20 Hz)
 
@@ -160,8 +164,15 @@ def nominal_path(spec: RunSpec, cfg: OnboardConfig) -> tuple[list[list[float]], 
 
 
 def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float) -> float:
-    """``time_limit_factor`` x the nominal path time (length / speed + the start from rest), simulated s."""
-    return round(spec.time_limit_factor * (length_m / speed_mps + ACCELERATION_ALLOWANCE_S), 2)
+    """``time_limit_factor`` x the nominal path time (length / speed + the start from rest), simulated s;
+    at least ``MIN_TIME_LIMIT_S`` (the bench reads 0 as "no limit")."""
+    nominal = length_m / speed_mps + ACCELERATION_ALLOWANCE_S
+    return max(MIN_TIME_LIMIT_S, round(spec.time_limit_factor * nominal, 2))
+
+
+def vehicle_of(spec: RunSpec) -> VehicleParams:
+    """The simulated vehicle of a run: the packaged model with the run's variant (built once per process)."""
+    return _vehicle(spec.vehicle_scale, spec.vehicle_set)
 
 
 def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | None = None) -> RunOutput:
@@ -196,9 +207,9 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         initial=InitialConfig(*start),
         current=WaterCurrentConfig(spec.current_speed_mps, spec.current_dir_deg),
     )
-    bench = Bench(hil, _vehicle(spec.vehicle_scale, spec.vehicle_set))
+    bench = Bench(hil, vehicle_of(spec))
     autopilot = Autopilot(cfg.core, bus_limits=_bus_limits())
-    check = check_mission(mission, cfg.core, (start[0], start[1], start[2], math.radians(start[3])))
+    check = check_mission(mission, cfg.core)
     refused = "" if check.ok else f"mission refused: {check}"
     if not refused:
         verdict = autopilot.replace_mission(mission)
@@ -223,7 +234,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
         reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
     elif not refused and not result.started:
-        reason = f"not started within {START_ALLOWANCE_S:g} s: {status.reason}"
+        reason = f"not started: {status.reason}"
     row = run_row(
         spec,
         truth.rows,
@@ -258,6 +269,8 @@ def _drive(
         loop.plans.lockstep = True
     steps = LockstepBench(bench, bench_port, hil, truth, result)
     max_idle_ticks = round(START_ALLOWANCE_S * cfg.loop.rate_hz)
+    # A backstop only (the bench stops at the time limit): no run can keep its worker for ever.
+    max_ticks = max_idle_ticks + round((hil.bench.duration_s + STOP_DELAY_S + 1.0) * cfg.loop.rate_hz)
     try:
         while True:
             steps.offer()
@@ -270,27 +283,40 @@ def _drive(
                 raise RuntimeError(f"the onboard did not answer SYNC {steps.tick}")
             if steps.close_period():
                 return
-            if not result.started and steps.tick >= max_idle_ticks:
-                return  # it never started: the autopilot's status says why
+            if not result.started and (
+                steps.tick >= max_idle_ticks or autopilot.status.state.name in ("HOLD", "ABORT")
+            ):
+                return  # it never started (e.g. no plan at START): the autopilot's status says why
+            if steps.tick >= max_ticks:
+                raise RuntimeError(f"the run did not end within {max_ticks} ticks")
     finally:
         loop.close()
         onboard_port.close()
         bench_port.close()
 
 
-def _time_calls(obj: Any, name: str, timings: dict[str, float], key: str) -> None:
-    """Wrap ``obj.name`` (on this instance only) to add its wall time to ``timings[key]``."""
-    inner = getattr(obj, name)
+def timed(
+    inner: Callable[..., Any], timings: dict[str, float], key: str, count: str | None = None
+) -> Callable[..., Any]:
+    """``inner`` that adds its wall time (perf counter, s) to ``timings[key]`` and, with ``count``, one to
+    ``timings[count]`` per call (the benchmark's probes)."""
     clock = time.perf_counter
 
-    def timed(*args: Any, **kwargs: Any) -> Any:
+    def call(*args: Any, **kwargs: Any) -> Any:
         t0 = clock()
         try:
             return inner(*args, **kwargs)
         finally:
             timings[key] = timings.get(key, 0.0) + clock() - t0
+            if count is not None:
+                timings[count] = timings.get(count, 0.0) + 1.0
 
-    setattr(obj, name, timed)
+    return call
+
+
+def _time_calls(obj: Any, name: str, timings: dict[str, float], key: str) -> None:
+    """Wrap ``obj.name`` (on this instance only) with :func:`timed`."""
+    setattr(obj, name, timed(getattr(obj, name), timings, key))
 
 
 def _track(rows: list[list[Any]]) -> dict[str, list[float]]:

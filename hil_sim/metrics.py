@@ -65,6 +65,7 @@ def compute_metrics(
     samples: Sequence[Sequence[float]],
     goal: tuple[float, float, float | None],
     goal_depth_m: float = 1.0,
+    until_row: int | None = None,
 ) -> dict[str, Any]:
     """Arrival and tracking metrics (see the module docstring).
 
@@ -73,6 +74,9 @@ def compute_metrics(
         samples: the planned polyline ``[[x_m, y_m, yaw_deg], ...]`` from start to goal.
         goal: ``(x_m, y_m, yaw_deg)``; yaw None (a free arrival heading) takes the path's final heading.
         goal_depth_m: the goal's depth (m).
+        until_row: None: the arrival is the first crossing of the goal line. A row index: the last crossing
+            at or before that row (e.g. where the vehicle declared its arrival, after a miss and a second
+            approach), or the first one after it if there is none before.
     """
     if not truth:
         raise ValueError("empty truth log")
@@ -83,16 +87,21 @@ def compute_metrics(
     gyaw = math.radians(gyaw_deg)
     ux, uy = math.cos(gyaw), math.sin(gyaw)
     idx = 0
-    cross: list[float] = []
+    dists: list[float] = []  # cross-track of each row
     arrival: dict[str, float] | None = None
     arrival_row = len(truth) - 1
+    arrival_cross = 0.0
     near_end = max(poly.count - 1, 0)
     prev: Mapping[str, float] | None = None
     prev_along = -math.inf
+    was_past = False
     for k, row in enumerate(truth):
         along_goal = (row["x_m"] - gx) * ux + (row["y_m"] - gy) * uy
         d, idx = poly.nearest(row["x_m"], row["y_m"], idx - WINDOW_BACK, idx + WINDOW_AHEAD)
-        if idx >= near_end - WINDOW_BACK and along_goal >= 0.0:
+        past = idx >= near_end - WINDOW_BACK and along_goal >= 0.0
+        if until_row is not None and arrival is not None and k > until_row:
+            break
+        if past and not was_past:
             # Interpolate to the crossing of the goal line, so the period's sampling adds no error.
             arrival = dict(row)
             if prev is not None and prev_along < 0.0 <= along_goal:
@@ -101,12 +110,16 @@ def compute_metrics(
                 arrival["yaw_deg"] = prev["yaw_deg"] + w * math.degrees(
                     wrap_pi(math.radians(row["yaw_deg"] - prev["yaw_deg"]))
                 )
-            d, _ = poly.nearest(arrival["x_m"], arrival["y_m"], idx - WINDOW_BACK, idx + WINDOW_AHEAD)
-            cross.append(d)
+            arrival_cross, _ = poly.nearest(
+                arrival["x_m"], arrival["y_m"], idx - WINDOW_BACK, idx + WINDOW_AHEAD
+            )
             arrival_row = k
-            break
-        cross.append(d)
+            if until_row is None:
+                break
+        dists.append(d)
+        was_past = past
         prev, prev_along = row, along_goal
+    cross = [*dists[:arrival_row], arrival_cross] if arrival is not None else dists
     final = arrival if arrival is not None else dict(truth[-1])
     ex, ey = gx - final["x_m"], gy - final["y_m"]
     return {
