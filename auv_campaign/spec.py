@@ -21,6 +21,20 @@ At least one of ``missions`` / ``random_missions``. Missions are the listed ones
 (:func:`random_missions`, names r0, r1, ...). The runs are ``itertools.product`` of missions, seeds,
 currents, profiles, onboard override sets and vehicle variants, in that order (deterministic).
 
+Caps (refused before anything is drawn or expanded): ``random_missions.count`` <= 100000
+(:data:`MAX_RANDOM_MISSIONS`), ``random_missions.goals`` <= 100 (:data:`MAX_RANDOM_GOALS`),
+``random_missions.obstacles`` hi <= the onboard's ``[mission] max_obstacles`` (of the packaged
+``onboard.toml``, 64), and the total number of runs (the product of the number of missions and of every
+axis) <= 1000000 (:data:`MAX_RUNS`).
+
+Depths are >= 0 (positive down: a start, goal or random depth above the surface is refused). A current's
+direction is normalised to [0, 360) deg, and to 0 when its speed is 0 (:func:`normalise_current`), before
+duplicate detection, labels and run ids: ``[0.1, 360]`` is ``[0.1, 0]``, ``[0, 20]`` is ``[0, 0]``,
+``[0.25, -45]`` is ``c0.25d315``.
+
+The campaign owns the onboard's ``[bus]``, ``[loop]`` and ``[mavlink]`` tables (each run's bus, clock,
+telemetry and links): ``sweep.onboard`` may not set them (:func:`check_onboard_sets`).
+
 Units: metres, m/s, degrees (as in the onboard's mission files). An onboard override entry maps dotted keys of
 ``onboard.toml`` to values (a nested mapping is flattened: ``{control: {improved: {Kp5: -0.3}}}`` is
 ``control.improved.Kp5``); it is judged by the onboard's own configuration loader. A vehicle variant has
@@ -52,6 +66,14 @@ from auv_common.config import ConfigError
 PROFILES = ("basin", "sea")
 #: The largest current speed a sweep may ask for (m/s).
 MAX_CURRENT_MPS = 3.0
+#: The most random missions a spec may draw (``random_missions.count``).
+MAX_RANDOM_MISSIONS = 100_000
+#: The most goals of one random mission (``random_missions.goals``).
+MAX_RANDOM_GOALS = 100
+#: The most runs a spec may expand to (the product of missions and every sweep axis).
+MAX_RUNS = 1_000_000
+#: Tables of ``onboard.toml`` the campaign sets for every run (an onboard override may not).
+CAMPAIGN_TABLES = ("bus", "loop", "mavlink")
 #: The sweep axes, outer to inner (the order of the runs and of :attr:`CampaignSpec.axes`).
 AXES = ("mission", "seed", "current", "profile", "onboard", "vehicle")
 
@@ -154,12 +176,13 @@ class RunSpec:
     """One run: a mission under one value of every sweep axis.
 
     ``seed`` is the sensor-noise seed; current speed (m/s) and direction (deg, the direction it flows
-    towards, clockwise from north); ``profile`` the simulator's sensor profile; ``onboard`` the onboard
-    configuration overrides ((dotted key, value), in spec order) and ``onboard_label`` ("default" for none,
-    else ``o<index in the axis>``); ``vehicle_scale`` ((group, factor), ...) and ``vehicle_set``
-    ((dotted key, value), ...) the vehicle variant, ``vehicle_label`` ("nominal" or ``v<index>``);
-    ``time_limit_factor`` times the mission's nominal time is the run's time limit; a success needs the final
-    position within ``success_position_m`` (m) and the course within ``success_course_deg`` (deg).
+    towards, clockwise from north, in [0, 360) and 0 when the speed is 0: :func:`normalise_current`);
+    ``profile`` the simulator's sensor profile; ``onboard`` the onboard configuration overrides ((dotted
+    key, value), in spec order) and ``onboard_label`` ("default" for none, else ``o<index in the axis>``);
+    ``vehicle_scale`` ((group, factor), ...) and ``vehicle_set`` ((dotted key, value), ...) the vehicle
+    variant, ``vehicle_label`` ("nominal" or ``v<index>``); ``time_limit_factor`` times the mission's
+    nominal time is the run's time limit; a success needs the final position within
+    ``success_position_m`` (m) and the course within ``success_course_deg`` (deg).
     """
 
     run_id: str
@@ -269,9 +292,22 @@ def seed_label(seed: int) -> str:
     return f"s{seed}"
 
 
+def normalise_current(speed_mps: float, direction_deg: float) -> tuple[float, float]:
+    """``(speed, direction)`` with the direction in [0, 360) deg, and 0 when the speed is 0 (no ``-0.0``)."""
+    speed = float(speed_mps) + 0.0
+    if speed == 0.0:
+        return speed, 0.0
+    direction = float(direction_deg) % 360.0
+    if direction >= 360.0:  # a tiny negative direction rounds up to 360
+        direction = 0.0
+    return speed, direction + 0.0
+
+
 def current_label(speed_mps: float, direction_deg: float) -> str:
-    """The label of a current in run ids and axes: ``c<speed>d<direction>`` (``%g``), e.g. ``c0.3d90``."""
-    return f"c{speed_mps:g}d{direction_deg + 0.0:g}"
+    """The label of a current in run ids and axes: ``c<speed>d<direction>`` (``%g``, after
+    :func:`normalise_current`), e.g. ``c0.3d90``."""
+    speed, direction = normalise_current(speed_mps, direction_deg)
+    return f"c{speed:g}d{direction:g}"
 
 
 def make_run_id(
@@ -306,12 +342,13 @@ def random_missions(
     previous goal; redrawn). The number of obstacles is uniform in ``obstacles`` (inclusive), each radius
     uniform in ``radius_m`` (m, rounded to 0.01 m) and each centre uniform in the square, redrawn while the
     circle (radius + 0.5 m) holds the start or a goal (at most 100 draws, then that obstacle is dropped).
-    Names r0, r1, .... Raises :class:`ValueError` on bad arguments.
+    Names r0, r1, .... Raises :class:`ValueError` on bad arguments (``count`` at most
+    :data:`MAX_RANDOM_MISSIONS`, ``goals`` at most :data:`MAX_RANDOM_GOALS`, depths >= 0).
     """
-    if isinstance(count, bool) or not isinstance(count, int) or count < 0:
-        raise ValueError(f"count must be an integer >= 0, got {count!r}")
-    if isinstance(goals, bool) or not isinstance(goals, int) or goals < 1:
-        raise ValueError(f"goals must be an integer >= 1, got {goals!r}")
+    if isinstance(count, bool) or not isinstance(count, int) or not 0 <= count <= MAX_RANDOM_MISSIONS:
+        raise ValueError(f"count must be an integer in [0, {MAX_RANDOM_MISSIONS}], got {count!r}")
+    if isinstance(goals, bool) or not isinstance(goals, int) or not 1 <= goals <= MAX_RANDOM_GOALS:
+        raise ValueError(f"goals must be an integer in [1, {MAX_RANDOM_GOALS}], got {goals!r}")
     if not (math.isfinite(area_m) and area_m > 0.0):
         raise ValueError(f"area_m must be > 0, got {area_m!r}")
     o_lo, o_hi = obstacles
@@ -321,8 +358,8 @@ def random_missions(
         raise ValueError(f"obstacles must be [lo, hi] with 0 <= lo <= hi, got {obstacles!r}")
     if not 0.0 < r_lo <= r_hi:
         raise ValueError(f"radius_m must be [lo, hi] with 0 < lo <= hi, got {radius_m!r}")
-    if not d_lo <= d_hi:
-        raise ValueError(f"depth_m must be [lo, hi] with lo <= hi, got {depth_m!r}")
+    if not 0.0 <= d_lo <= d_hi:
+        raise ValueError(f"depth_m must be [lo, hi] with 0 <= lo <= hi, got {depth_m!r}")
     min_d = area_m / 3.0 if min_distance_m is None else float(min_distance_m)
     if not 0.0 <= min_d <= area_m:
         raise ValueError(f"min_distance_m must be in [0, area_m], got {min_distance_m!r}")
@@ -403,11 +440,13 @@ def _positive(key: str, value: Any) -> float:
     return out
 
 
-def _integer(key: str, value: Any, minimum: int | None = None) -> int:
+def _integer(key: str, value: Any, minimum: int | None = None, maximum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise _Invalid(key, f"expected an integer, got {_describe(value)}")
     if minimum is not None and value < minimum:
         raise _Invalid(key, f"must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise _Invalid(key, f"must be <= {maximum}, got {value}")
     return value
 
 
@@ -494,6 +533,10 @@ def _pose(key: str, value: Any, *, yaw_required: bool) -> tuple[float, float, fl
         key, value, _POSE_KEYS, ("x_m", "y_m", "depth_m", "yaw_deg") if yaw_required else _POSE_KEYS[:3]
     )
     x, y, d = (_number(_join(key, k), item[k]) for k in _POSE_KEYS[:3])
+    if d < 0.0:
+        raise _Invalid(
+            _join(key, "depth_m"), f"must be >= 0 (positive down; < 0 is above the surface), got {d:g}"
+        )
     raw = item.get("yaw_deg")
     return x, y, d, None if raw is None else _number(_join(key, "yaw_deg"), raw)
 
@@ -534,9 +577,17 @@ def _range(key: str, value: Any, *, integer: bool) -> tuple[Any, Any]:
     return lo, hi
 
 
-def _random(key: str, value: Any, seed_offset: int) -> list[MissionSpec]:
+def _max_obstacles() -> int:
+    """The onboard's ``[mission] max_obstacles`` (the packaged ``onboard.toml``)."""
+    from onboard.app.runtime import build_config
+
+    return int(build_config(None, []).mission.max_obstacles)
+
+
+def _random(key: str, value: Any, seed_offset: int) -> dict[str, Any]:
+    """The checked arguments of :func:`random_missions` (none drawn yet: the run count is checked first)."""
     item = _mapping(key, value, _RANDOM_KEYS, ("count", "seed", "area_m"))
-    count = _integer(f"{key}.count", item["count"], 1)
+    count = _integer(f"{key}.count", item["count"], 1, MAX_RANDOM_MISSIONS)
     seed = _integer(f"{key}.seed", item["seed"], 0) + seed_offset
     if seed < 0:
         raise _Invalid(f"{key}.seed", f"seed + offset must be >= 0, got {seed}")
@@ -544,11 +595,22 @@ def _random(key: str, value: Any, seed_offset: int) -> list[MissionSpec]:
     obstacles = _range(f"{key}.obstacles", item.get("obstacles", 0), integer=True)
     if obstacles[0] < 0:
         raise _Invalid(f"{key}.obstacles", f"must be >= 0, got {item['obstacles']!r}")
+    cap = _max_obstacles()
+    if obstacles[1] > cap:
+        raise _Invalid(
+            f"{key}.obstacles",
+            f"must be <= {cap} (the onboard's [mission] max_obstacles), got {item['obstacles']!r}",
+        )
     radius = _range(f"{key}.radius_m", item.get("radius_m", [1.0, 4.0]), integer=False)
     if radius[0] <= 0.0:
         raise _Invalid(f"{key}.radius_m", f"must be > 0, got {item['radius_m']!r}")
     depth = _range(f"{key}.depth_m", item.get("depth_m", 1.0), integer=False)
-    goals = _integer(f"{key}.goals", item.get("goals", 1), 1)
+    if depth[0] < 0.0:
+        raise _Invalid(
+            f"{key}.depth_m",
+            f"must be >= 0 (positive down; < 0 is above the surface), got {item['depth_m']!r}",
+        )
+    goals = _integer(f"{key}.goals", item.get("goals", 1), 1, MAX_RANDOM_GOALS)
     min_distance = None
     if item.get("min_distance_m") is not None:
         min_distance = _number(f"{key}.min_distance_m", item["min_distance_m"])
@@ -556,7 +618,16 @@ def _random(key: str, value: Any, seed_offset: int) -> list[MissionSpec]:
             raise _Invalid(
                 f"{key}.min_distance_m", f"must be in [0, area_m = {area:g}], got {min_distance:g}"
             )
-    return random_missions(count, seed, area, obstacles, radius, depth, goals, min_distance)
+    return {
+        "count": count,
+        "seed": seed,
+        "area_m": area,
+        "obstacles": obstacles,
+        "radius_m": radius,
+        "depth_m": depth,
+        "goals": goals,
+        "min_distance_m": min_distance,
+    }
 
 
 def _axis(sweep: dict[str, Any], name: str, default: list[Any]) -> list[Any]:
@@ -588,11 +659,25 @@ def _reraise(key: str, text: str) -> _Invalid:
     return _Invalid(key, text)
 
 
+def _owned(key: str, dotted: str) -> None:
+    """Refuse an override of a table the campaign sets (:data:`CAMPAIGN_TABLES`)."""
+    table = dotted.split(".", 1)[0]
+    if table in CAMPAIGN_TABLES:
+        raise _Invalid(
+            f"{key}.{dotted}",
+            f"[{table}] is set by the campaign for every run ([bus], [loop] and [mavlink] are the "
+            "campaign's), not an onboard override",
+        )
+
+
 def _check_onboard(key: str, sets: list[str]) -> None:
-    """The onboard's own loader judges the overrides (unknown keys, types, ranges)."""
+    """The onboard's own loader judges the overrides (unknown keys, types, ranges); the campaign's tables
+    are refused first."""
     from onboard.app.config import DEFAULT_CONFIG_PATH
     from onboard.app.runtime import build_config
 
+    for entry in sets:
+        _owned(key, entry.partition("=")[0].strip())
     try:
         build_config(None, sets)
     except ConfigError as exc:
@@ -600,6 +685,21 @@ def _check_onboard(key: str, sets: list[str]) -> None:
         if text.startswith(base + "."):
             raise _reraise(key, text[len(base) + 1 :]) from None
         raise _Invalid(key, text.removeprefix(base + ": ")) from None
+
+
+def check_onboard_sets(key: str, sets: list[str]) -> None:
+    """Judge ``auv-onboard run --set`` arguments (``KEY=VALUE``, as :meth:`RunSpec.onboard_sets`) as a
+    campaign would: refused if one sets a table of :data:`CAMPAIGN_TABLES`, or if the onboard's own loader
+    refuses them over the packaged ``onboard.toml`` (unknown keys, types, ranges).
+
+    Raises :class:`SpecError`, one line ``KEY[.SUBKEY]: what`` naming ``key`` (the caller puts its file in
+    ``key`` if it wants it there, e.g. ``"tune.yaml: params"``), e.g.
+    ``sweep.onboard[0].loop.telemetry_csv: [loop] is set by the campaign ...``.
+    """
+    try:
+        _check_onboard(key, list(sets))
+    except _Invalid as exc:
+        raise SpecError(str(exc)) from None
 
 
 def _check_vehicle(key: str, scale: dict[str, float], sets: dict[str, Any]) -> None:
@@ -642,16 +742,12 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     listed = top.get("missions")
     if listed is not None:
         missions = [_mission(f"missions[{i}]", m, f"m{i}") for i, m in enumerate(_list("missions", listed))]
+    drawn: dict[str, Any] | None = None
     if top.get("random_missions") is not None:
-        missions += _random("random_missions", top["random_missions"], random_seed_offset)
-    if not missions:
+        drawn = _random("random_missions", top["random_missions"], random_seed_offset)
+    n_missions = len(missions) + (drawn["count"] if drawn else 0)
+    if not n_missions:
         raise _Invalid("missions", "no mission (give missions or random_missions)")
-    names: dict[str, int] = {}
-    for i, m in enumerate(missions):
-        if m.name in names:
-            key = f"missions[{i}].name" if i < len(listed or []) else "random_missions"
-            raise _Invalid(key, f"duplicate mission name {m.name!r} (run ids would collide)")
-        names[m.name] = i
 
     # Sweep axes.
     sweep = _mapping("sweep", top.get("sweep"), _SWEEP_KEYS)
@@ -673,7 +769,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
             raise _Invalid(key, f"speed must be in [0, {MAX_CURRENT_MPS:g}] m/s, got {speed:g}")
         if not -360.0 <= direction <= 360.0:
             raise _Invalid(key, f"direction must be in [-360, 360] deg, got {direction:g}")
-        currents.append((speed, direction + 0.0))
+        currents.append(normalise_current(speed, direction))
     _no_duplicates("current", [current_label(s, d) for s, d in currents])
 
     profiles: list[str] = []
@@ -690,6 +786,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         for k, _ in pairs:
             if "." not in k:
                 raise _Invalid(f"{key}.{k}", "expected a dotted key TABLE.KEY of onboard.toml")
+            _owned(key, k)
         label = f"o{i}" if pairs else "default"
         onboards.append((label, pairs))
     _no_duplicates("onboard", [_canonical(p) for _, p in onboards])
@@ -707,6 +804,23 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     _no_duplicates("vehicle", [(_canonical(s), _canonical(t)) for _, s, t in vehicles])
     _no_duplicates("vehicle", [label for label, _, _ in vehicles])
 
+    # The size, before anything is drawn or expanded.
+    sizes = {
+        "mission": n_missions,
+        "seed": len(seeds),
+        "current": len(currents),
+        "profile": len(profiles),
+        "onboard": len(onboards),
+        "vehicle": len(vehicles),
+    }
+    total = math.prod(sizes.values())
+    if total > MAX_RUNS:
+        raise _Invalid(
+            "sweep",
+            f"{total} runs ({' x '.join(f'{n} {axis}' for axis, n in sizes.items())}) exceed the cap of "
+            f"{MAX_RUNS} runs",
+        )
+
     time_limit_factor = _positive("time_limit_factor", top.get("time_limit_factor", 2.0))
     success = _mapping("success", top.get("success"), _SUCCESS_KEYS)
     position_m = _positive("success.position_m", success.get("position_m", 0.3))
@@ -719,6 +833,15 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     for i, (_, scale, sets) in enumerate(vehicles):
         if scale or sets:
             _check_vehicle(f"sweep.vehicle[{i}]", dict(scale), dict(sets))
+
+    if drawn is not None:
+        missions += random_missions(**drawn)
+    names: dict[str, int] = {}
+    for i, m in enumerate(missions):
+        if m.name in names:
+            key = f"missions[{i}].name" if i < len(listed or []) else "random_missions"
+            raise _Invalid(key, f"duplicate mission name {m.name!r} (run ids would collide)")
+        names[m.name] = i
 
     runs: list[RunSpec] = []
     for mission, seed, (speed, direction), profile, (o_label, pairs), (
@@ -794,15 +917,21 @@ def load_spec(path: str | Path, *, seed_offset: int = 0, random_seed_offset: int
 
 __all__ = [
     "AXES",
+    "CAMPAIGN_TABLES",
     "MAX_CURRENT_MPS",
+    "MAX_RANDOM_GOALS",
+    "MAX_RANDOM_MISSIONS",
+    "MAX_RUNS",
     "PROFILES",
     "CampaignSpec",
     "MissionSpec",
     "RunSpec",
     "SpecError",
+    "check_onboard_sets",
     "current_label",
     "load_spec",
     "make_run_id",
+    "normalise_current",
     "parse_spec",
     "random_missions",
     "seed_label",

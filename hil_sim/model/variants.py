@@ -10,7 +10,13 @@ A variant is the TOML as read plus
 
   - ``fin_lift``: ``[fins] lift_slope_per_rad`` (the fin lift of every fin term, F = rho C_L_alpha S_fin);
   - ``added_mass``: the ``[remus]`` acceleration coefficients (Xudot, Yvdot, Yrdot, Zwdot, Zqdot, Kpdot,
-    Mwdot, Mqdot, Nvdot, Nrdot);
+    Mwdot, Mqdot, Nvdot, Nrdot) and the pure added-mass coupling terms that Prestero (2001) derives from
+    them (Xwq = Zwdot, Xqq = Zqdot, Xvr = -Yvdot, Xrr = -Yrdot, Ywp = -Zwdot, Ypq = -Zqdot, Zvp = Yvdot,
+    Zrp = Yrdot, Mvp = -Yrdot, Mrp = Kpdot - Nrdot, Nwp = Zqdot, Npq = -Kpdot + Mqdot), so that the
+    relations still hold in a variant. Mrp and Npq are scaled as they stand in the TOML (4.86 and -4.86
+    from Prestero's table, 1 % off Kpdot - Nrdot = 4.81 and -Kpdot + Mqdot = -4.81). Not the combined
+    coupling terms Yur, Zuq, Muq, Nur (added mass mixed with fin terms) nor Muw, Nuv (the Munk moment
+    mixed with hull lift and fin terms): they keep their values (Muw and Nuv are in ``damping``);
   - ``damping``: the ``[remus]`` damping coefficients (Xuu, Yvv, Yrr, Zww, Zqq, Kpp, Mww, Nvv, Yuv, Zuw, Muw,
     Nuv) and the ``[crossflow]`` drag coefficients hull_cd and fin_cd (Mqq = Nrr);
   - ``actuator_time``: slower actuators, ``[actuators] propeller_time_constant_s`` times the factor and
@@ -37,18 +43,24 @@ from hil_sim.model.params import VehicleConfig, VehicleParams, derive_params, lo
 #: Group name -> what its factor multiplies (see the module docstring).
 SCALE_GROUPS: dict[str, str] = {
     "actuator_time": "[actuators] propeller_time_constant_s x factor, fin_rate_degps / factor (slower)",
-    "added_mass": "[remus] acceleration coefficients (X/Y/Z/K/M/N ...dot)",
+    "added_mass": (
+        "[remus] acceleration coefficients (X/Y/Z/K/M/N ...dot) and the pure added-mass coupling terms "
+        "Xwq Xqq Xvr Xrr Ywp Ypq Zvp Zrp Mvp Mrp Nwp Npq (not the combined Yur Zuq Muq Nur Muw Nuv, "
+        "which mix in hull lift, the Munk moment or fin terms)"
+    ),
     "damping": "[remus] Xuu Yvv Yrr Zww Zqq Kpp Mww Nvv Yuv Zuw Muw Nuv and [crossflow] hull_cd, fin_cd",
     "fin_lift": "[fins] lift_slope_per_rad",
 }
 
 _ADDED_MASS = ("Xudot", "Yvdot", "Yrdot", "Zwdot", "Zqdot", "Kpdot", "Mwdot", "Mqdot", "Nvdot", "Nrdot")
+#: The coupling terms that are added mass only (Prestero 2001 sec. 3.3): linear in the ``*dot`` terms.
+_ADDED_MASS_COUPLING = ("Xwq", "Xqq", "Xvr", "Xrr", "Ywp", "Ypq", "Zvp", "Zrp", "Mvp", "Mrp", "Nwp", "Npq")
 _DAMPING = ("Xuu", "Yvv", "Yrr", "Zww", "Zqq", "Kpp", "Mww", "Nvv", "Yuv", "Zuw", "Muw", "Nuv")
 
 #: Group -> ((section, key, power), ...): the value is multiplied by factor ** power.
 _GROUP_FIELDS: dict[str, tuple[tuple[str, str, int], ...]] = {
     "fin_lift": (("fins", "lift_slope_per_rad", 1),),
-    "added_mass": tuple(("remus", k, 1) for k in _ADDED_MASS),
+    "added_mass": tuple(("remus", k, 1) for k in (*_ADDED_MASS, *_ADDED_MASS_COUPLING)),
     "damping": (
         *(("remus", k, 1) for k in _DAMPING),
         ("crossflow", "hull_cd", 1),

@@ -15,11 +15,18 @@ import pytest
 from auv_campaign.results import ID_COLUMNS
 from auv_campaign.spec import (
     AXES,
+    CAMPAIGN_TABLES,
+    MAX_RANDOM_GOALS,
+    MAX_RANDOM_MISSIONS,
+    MAX_RUNS,
     CampaignSpec,
     MissionSpec,
     RunSpec,
     SpecError,
+    check_onboard_sets,
+    current_label,
     load_spec,
+    normalise_current,
     parse_spec,
     random_missions,
 )
@@ -239,7 +246,8 @@ def test_round_trip(example_listed: CampaignSpec) -> None:
         assert back.onboard_sets() == run.onboard_sets()
     assert runs[0].onboard[0][1] == (0.0, 1.5, 2.0)
     assert runs[0].mission.goals[1][3] is None
-    assert runs[0].run_id == "m0_s0_c0.25d-45_basin_o0_v0"
+    assert runs[0].run_id == "m0_s0_c0.25d315_basin_o0_v0"  # -45 deg normalised to [0, 360)
+    assert runs[0].current_dir_deg == 315.0
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -305,12 +313,105 @@ def test_random_missions_bad_arguments() -> None:
         random_missions(1, 0, 10.0, min_distance_m=20.0)
     with pytest.raises(ValueError, match="radius_m"):
         random_missions(1, 0, 10.0, radius_m=(0.0, 1.0))
+    with pytest.raises(ValueError, match="count"):
+        random_missions(MAX_RANDOM_MISSIONS + 1, 0, 10.0)
+    with pytest.raises(ValueError, match="goals"):
+        random_missions(1, 0, 10.0, goals=MAX_RANDOM_GOALS + 1)
+    with pytest.raises(ValueError, match="depth_m"):
+        random_missions(1, 0, 10.0, depth_m=(-1.0, 1.0))
 
 
 def test_random_missions_in_a_spec() -> None:
     data = {"name": "r", "random_missions": {"count": 3, "seed": 5, "area_m": 40, "obstacles": 2, "goals": 2}}
     spec = parse_spec(data, "spec.yaml")
     assert [r.mission for r in spec.runs] == random_missions(3, 5, 40.0, obstacles=(2, 2), goals=2)
+
+
+# ----------------------------------------------------------------------------------------------------
+# Caps, currents, the campaign's onboard tables
+
+
+def test_caps_are_documented_and_the_obstacle_cap_is_the_onboards() -> None:
+    import auv_campaign.spec as module
+    from onboard.app.runtime import build_config
+
+    doc = module.__doc__ or ""
+    for text in ("100000", "<= 100 ", "max_obstacles", "64", "1000000", "[bus]", "[loop]", "[mavlink]"):
+        assert text in doc, text
+    assert (MAX_RANDOM_MISSIONS, MAX_RANDOM_GOALS, MAX_RUNS) == (100_000, 100, 1_000_000)
+    assert set(CAMPAIGN_TABLES) == {"bus", "loop", "mavlink"}
+    cap = build_config(None, []).mission.max_obstacles
+    assert cap == 64
+    data = {"name": "r", "random_missions": {"count": 1, "seed": 0, "area_m": 60, "obstacles": [0, cap]}}
+    assert len(parse_spec(data, "spec.yaml").runs) == 1
+    data["random_missions"]["obstacles"] = [0, cap + 1]
+    with pytest.raises(SpecError, match=rf"^spec\.yaml: random_missions\.obstacles: must be <= {cap} "):
+        parse_spec(data, "spec.yaml")
+
+
+def test_run_count_is_refused_before_anything_is_drawn(monkeypatch: pytest.MonkeyPatch) -> None:
+    import auv_campaign.spec as module
+
+    def no_draw(*args: Any, **kwargs: Any) -> list[MissionSpec]:
+        raise AssertionError("random missions drawn before the run count was checked")
+
+    monkeypatch.setattr(module, "random_missions", no_draw)
+    data = minimal()
+    data["random_missions"] = {"count": MAX_RANDOM_MISSIONS, "seed": 0, "area_m": 60}
+    data["sweep"] = {"seed": list(range(10))}
+    with pytest.raises(SpecError) as info:
+        parse_spec(data, "spec.yaml")
+    message = str(info.value)
+    assert message.startswith("spec.yaml: sweep: 1000010 runs (100001 mission x 10 seed x 1 current x "), (
+        message
+    )
+    assert message.endswith(f"exceed the cap of {MAX_RUNS} runs")
+    assert "\n" not in message
+
+
+def test_run_count_is_the_product_of_the_axes() -> None:
+    data = minimal()
+    data["sweep"] = {"seed": list(range(1001)), "current": [[0.001 * i, 0] for i in range(1000)]}
+    with pytest.raises(SpecError, match=r"^spec\.yaml: sweep: 1001000 runs \(1 mission x 1001 seed x 1000 "):
+        parse_spec(data, "spec.yaml")
+
+
+def test_currents_are_normalised() -> None:
+    assert normalise_current(0.1, 360.0) == (0.1, 0.0)
+    assert normalise_current(0.1, -90.0) == (0.1, 270.0)
+    assert normalise_current(0.1, -360.0) == (0.1, 0.0)
+    assert normalise_current(0.1, -1e-20) == (0.1, 0.0)  # rounds up to 360
+    assert normalise_current(0.0, 20.0) == (0.0, 0.0)
+    speed, direction = normalise_current(-0.0, -0.0)
+    assert math.copysign(1.0, speed) == 1.0 and math.copysign(1.0, direction) == 1.0
+    assert current_label(0.3, -90) == "c0.3d270"
+    assert current_label(0.0, 45) == current_label(-0.0, 0) == "c0d0"
+    data = minimal()
+    data["sweep"] = {"current": [[0.1, 360], [0, 20], [0.2, -45]]}
+    spec = parse_spec(data, "spec.yaml")
+    assert [(r.current_speed_mps, r.current_dir_deg) for r in spec.runs] == [
+        (0.1, 0.0),
+        (0.0, 0.0),
+        (0.2, 315.0),
+    ]
+    assert spec.axes["current"] == ["c0.1d0", "c0d0", "c0.2d315"]
+    assert [r.run_id.split("_")[2] for r in spec.runs] == spec.axes["current"]
+
+
+def test_check_onboard_sets() -> None:
+    check_onboard_sets("tune", [])
+    check_onboard_sets("tune", ["control.improved.Kp5=-0.3", 'guidance.mode="los"'])
+    for sets, pattern in (
+        (['loop.telemetry_csv="runs.csv"'], r"^tune\.loop\.telemetry_csv: \[loop\] is set by the campaign"),
+        (["control.improved.Kp5=-0.3", 'bus.interface="virtual"'], r"^tune\.bus\.interface: \[bus\] is set"),
+        (['mavlink.endpoints=["udpout:127.0.0.1:1"]'], r"^tune\.mavlink\.endpoints: \[mavlink\] is set"),
+        (['guidance.mode="bogus"'], r"^tune\.guidance\.mode: must be one of"),
+        (["bogus.x=1"], r"^tune: unknown key bogus"),
+    ):
+        with pytest.raises(SpecError, match=pattern) as info:
+            check_onboard_sets("tune", sets)
+        assert "\n" not in str(info.value)
+        assert isinstance(info.value, ConfigError)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -356,6 +457,8 @@ BAD: list[tuple[str, Any, str]] = [
     (f"{START}/x_m", "far", "missions[0].start.x_m: expected a number, got 'far'"),
     (f"{START}/y_m", float("inf"), "missions[0].start.y_m: must be finite"),
     (f"{START}/zz", 1, "missions[0].start.zz: unknown key"),
+    (f"{START}/depth_m", -0.5, "missions[0].start.depth_m: must be >= 0 (positive down; < 0 is above the"),
+    (f"{GOAL}/depth_m", -1, "missions[0].goals[0].depth_m: must be >= 0"),
     ("missions/0/goals", [], "missions[0].goals: must not be empty"),
     ("missions/0/goals", DELETE, "missions[0].goals: missing"),
     (f"{GOAL}/depth_m", DELETE, "missions[0].goals[0].depth_m: missing"),
@@ -382,6 +485,10 @@ BAD: list[tuple[str, Any, str]] = [
     ("sweep/current", [["fast", 0]], "sweep.current[0][0]: expected a number"),
     ("sweep/current", [[0.3, float("nan")]], "sweep.current[0][1]: must be finite"),
     ("sweep/current", [[0.3, 90], [0.3, 90.0]], "sweep.current[1]: same as sweep.current[0]"),
+    ("sweep/current", [[0.1, 0], [0.1, 360]], "sweep.current[1]: same as sweep.current[0]"),
+    ("sweep/current", [[0.1, -90], [0.1, 270]], "sweep.current[1]: same as sweep.current[0]"),
+    ("sweep/current", [[0, 10], [0.2, 0], [0, 20]], "sweep.current[2]: same as sweep.current[0]"),
+    ("sweep/current", [[0.1, 361]], "sweep.current[0]: direction must be in [-360, 360] deg"),
     ("sweep/profile", ["basin", "lake"], "sweep.profile[1]: must be one of basin, sea, got 'lake'"),
     ("sweep/profile", ["sea", "sea"], "sweep.profile[1]: same as sweep.profile[0]"),
     ("sweep/onboard", [{}, {}], "sweep.onboard[1]: same as sweep.onboard[0]"),
@@ -400,6 +507,18 @@ BAD: list[tuple[str, Any, str]] = [
         "sweep.onboard[1].control.improved.Kp5: expected a number",
     ),
     ("sweep/onboard", [{"bogus.x": 1}], "sweep.onboard[0]: unknown key bogus"),
+    (
+        "sweep/onboard",
+        [{}, {"loop.telemetry_csv": "runs.csv"}],
+        "sweep.onboard[1].loop.telemetry_csv: [loop] is set by the campaign for every run",
+    ),
+    ("sweep/onboard", [{"loop": {"rate_hz": 50.0}}], "sweep.onboard[0].loop.rate_hz: [loop] is set by the"),
+    ("sweep/onboard", [{"bus.interface": "virtual"}], "sweep.onboard[0].bus.interface: [bus] is set by the"),
+    (
+        "sweep/onboard",
+        [{"mavlink.endpoints": ["udpout:127.0.0.1:1"]}],
+        "sweep.onboard[0].mavlink.endpoints: [mavlink] is set by the campaign",
+    ),
     ("sweep/onboard", [{"guidance.speed_mps": -1}], "sweep.onboard[0].guidance: speed_mps must be > 0"),
     (
         "sweep/onboard",
@@ -438,6 +557,36 @@ BAD: list[tuple[str, Any, str]] = [
     ("random_missions", [1], "random_missions: expected a mapping"),
     ("random_missions", {"count": 2, "seed": 1}, "random_missions.area_m: missing"),
     ("random_missions", {"count": 0, "seed": 1, "area_m": 9}, "random_missions.count: must be >= 1"),
+    (
+        "random_missions",
+        {"count": 100_001, "seed": 1, "area_m": 9},
+        "random_missions.count: must be <= 100000, got 100001",
+    ),
+    (
+        "random_missions",
+        {"count": 100_000_000, "seed": 1, "area_m": 9},
+        "random_missions.count: must be <= 100000",
+    ),
+    (
+        "random_missions",
+        {"count": 1, "seed": 1, "area_m": 9, "goals": 101},
+        "random_missions.goals: must be <= 100, got 101",
+    ),
+    (
+        "random_missions",
+        {"count": 1, "seed": 1, "area_m": 9, "obstacles": [0, 65]},
+        "random_missions.obstacles: must be <= 64 (the onboard's [mission] max_obstacles)",
+    ),
+    (
+        "random_missions",
+        {"count": 1, "seed": 1, "area_m": 9, "obstacles": 10**9},
+        "random_missions.obstacles: must be <= 64",
+    ),
+    (
+        "random_missions",
+        {"count": 1, "seed": 1, "area_m": 9, "depth_m": [-1, 2]},
+        "random_missions.depth_m: must be >= 0",
+    ),
     (
         "random_missions",
         {"count": 1, "seed": 1, "area_m": 9, "bogus": 1},

@@ -35,7 +35,10 @@ EXPECTED: dict[str, dict[str, int]] = {
     "fin_lift": {"fins.lift_slope_per_rad": 1},
     "added_mass": {
         f"remus.{k}": 1
-        for k in ("Xudot", "Yvdot", "Yrdot", "Zwdot", "Zqdot", "Kpdot", "Mwdot", "Mqdot", "Nvdot", "Nrdot")
+        for k in (
+            *("Xudot", "Yvdot", "Yrdot", "Zwdot", "Zqdot", "Kpdot", "Mwdot", "Mqdot", "Nvdot", "Nrdot"),
+            *("Xwq", "Xqq", "Xvr", "Xrr", "Ywp", "Ypq", "Zvp", "Zrp", "Mvp", "Mrp", "Nwp", "Npq"),
+        )
     },
     "damping": {
         **{
@@ -65,6 +68,44 @@ def test_each_group_scales_exactly_its_values(cfg: VehicleConfig, group: str) ->
     assert changed == set(EXPECTED[group])
     for key, power in EXPECTED[group].items():
         assert after[key] == pytest.approx(before[key] * factor**power, rel=1e-12)
+
+
+#: Prestero (2001): the pure added-mass coupling terms of [remus] as combinations of the *dot terms.
+COUPLING: dict[str, dict[str, float]] = {
+    "Xwq": {"Zwdot": 1.0},
+    "Xqq": {"Zqdot": 1.0},
+    "Xvr": {"Yvdot": -1.0},
+    "Xrr": {"Yrdot": -1.0},
+    "Ywp": {"Zwdot": -1.0},
+    "Ypq": {"Zqdot": -1.0},
+    "Zvp": {"Yvdot": 1.0},
+    "Zrp": {"Yrdot": 1.0},
+    "Mvp": {"Yrdot": -1.0},
+    "Mrp": {"Kpdot": 1.0, "Nrdot": -1.0},
+    "Nwp": {"Zqdot": 1.0},
+    "Npq": {"Kpdot": -1.0, "Mqdot": 1.0},
+}
+#: The TOML's Mrp, Npq (+-4.86, Prestero's table) are 1 % off Kpdot - Nrdot = 4.81; the others are exact.
+COUPLING_REL = {"Mrp": 0.011, "Npq": 0.011}
+
+
+@pytest.mark.parametrize("factor", [1.0, 0.75, 1.25])
+def test_added_mass_coupling_follows_the_dot_terms(cfg: VehicleConfig, factor: float) -> None:
+    remus = vary_config(cfg, {"added_mass": factor}).remus
+    assert set(COUPLING) == {k.removeprefix("remus.") for k in EXPECTED["added_mass"]} - {
+        "Xudot", "Yvdot", "Yrdot", "Zwdot", "Zqdot", "Kpdot", "Mwdot", "Mqdot", "Nvdot", "Nrdot"
+    }  # fmt: skip
+    for term, combination in COUPLING.items():
+        expected = sum(sign * getattr(remus, dot) for dot, sign in combination.items())
+        assert getattr(remus, term) == pytest.approx(expected, rel=COUPLING_REL.get(term, 1e-12)), term
+
+
+def test_combined_coupling_terms_keep_their_values(cfg: VehicleConfig) -> None:
+    """Yur, Zuq, Muq, Nur, Muw, Nuv mix added mass with hull lift, the Munk moment or fin terms."""
+    heavy = vary_config(cfg, {"added_mass": 1.25}).remus
+    for term in ("Yur", "Zuq", "Muq", "Nur", "Muw", "Nuv"):
+        assert getattr(heavy, term) == getattr(cfg.remus, term), term
+    assert "Yur" in SCALE_GROUPS["added_mass"]  # named as left out
 
 
 def test_actuator_time_is_slower(cfg: VehicleConfig) -> None:
@@ -159,3 +200,6 @@ def test_heavier_added_mass_changes_the_mass_matrix() -> None:
     assert heavy.coeffs.mass_matrix[7] > base.coeffs.mass_matrix[7]  # m - Yvdot grows
     assert abs(heavy.coeffs.Nrr) > abs(base.coeffs.Nrr)  # cross-flow damping grows with the cd
     assert abs(heavy.coeffs.Xuu) == pytest.approx(1.25 * abs(base.coeffs.Xuu))
+    for term in ("Xwq", "Ywp", "Zvp", "Mrp", "Npq"):  # the coupling follows the added mass
+        assert getattr(heavy.coeffs, term) == pytest.approx(1.25 * getattr(base.coeffs, term), rel=1e-12)
+    assert heavy.coeffs.Yur == pytest.approx(base.coeffs.Yur, rel=1e-12)  # combined: left alone
