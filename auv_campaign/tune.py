@@ -14,28 +14,38 @@
 - Objective (minimised): the mean :func:`auv_campaign.results.run_cost` over the training runs: the spec's
   runs with the trial's values added to each run's onboard overrides (replacing the spec's own value of a
   tuned key). Trials run one after the other; each trial's runs in parallel on the executor (``--workers``
-  local processes, or ``--ray``), with no per-run files.
+  local processes, or ``--ray``), with no per-run files. Before a trial flies, its values with each run's
+  own overrides go through the onboard's loader: a combination that breaks a rule across keys (e.g.
+  ``failsafe.area_x_min_m < area_x_max_m``) is not flown, the trial is told to optuna as pruned (refused, not
+  a bug) and counted in the summary; :data:`MAX_REFUSED_IN_A_ROW` refused trials in a row stop the study
+  (exit 2: narrow the ranges).
 - Trial 0 is the baseline: the current values, enqueued so that the hand-tuned settings are measured with
   the same cost. The samplers: ``tpe`` (default; :class:`optuna.samplers.TPESampler`, multivariate, with
   :func:`tpe_startup_trials` random trials first, the baseline included) or ``cmaes``
   (:class:`optuna.samplers.CmaEsSampler` starting at the centre of the ranges, which is the baseline for
   default ranges; needs the ``cmaes`` package and at least 2 parameters to be CMA-ES rather than random
-  sampling), both seeded by ``--seed``.
+  sampling), both seeded by ``--seed`` + the number of trials already in the study (:func:`resume_seed`: a
+  resumed study draws new points rather than the first ones again).
 - The study lives in ``DIR/study.db`` (SQLite, optuna's RDB storage, named after the spec): the same
   command with the same ``--out`` resumes it; ``--trials`` is the number of finished trials wanted in all.
-  A study over other parameters, ranges or training runs is refused (another ``--out``).
-- Held-out: the same spec with every noise seed and the random missions' seed moved by
-  ``--holdout-seed-offset`` (other noise, other random missions, the rest alike). The baseline and the best
-  trial are flown on it at the end: the train cost of the best is optimistic (it was selected on it), the
-  held-out cost is the honest one.
-- Writes ``DIR/best.toml`` (the best values as an ``onboard.toml`` snippet, a comment header with the train
-  and held-out results and the equivalent ``--set`` arguments), ``DIR/trials.csv``, ``DIR/tune.json`` and
-  ``DIR/tune.html`` (self-contained).
+  A study over other parameters, ranges or training runs, or made with another ``--sampler`` or ``--seed``,
+  is refused (another ``--out``).
+- Held-out: the spec's runs with every sweep noise seed + ``--holdout-seed-offset`` and its random missions
+  drawn with ``random_missions.seed`` + the offset (other missions); the listed missions stay the same, so
+  for a spec with listed missions only the held-out runs are the same missions with other noise. Currents,
+  profiles, overrides and vehicle variants are alike. An offset that makes a held-out seed a training seed
+  is refused. The baseline and the best trial are flown on it at the end: the train cost of the best is
+  optimistic (it was selected on it), the held-out cost is the honest one. tune.json (``holdout``),
+  tune.html and best.toml say what it was.
+- Writes ``DIR/best.toml`` (the best values as an ``onboard.toml`` snippet to merge into ``onboard.toml``, a
+  comment header with the train and held-out results and the equivalent ``--set`` arguments),
+  ``DIR/trials.csv``, ``DIR/tune.json`` and ``DIR/tune.html`` (self-contained).
 
-Exit codes (those of ``auv-hil campaign``): 0 done; 1 a run raised (a bug; it cost as a failure); 2 a bad
-spec or command line (one line, before any run); 130 Ctrl-C: the current trial finishes (Ctrl-C again
-stops it at once), the held-out evaluation still runs (Ctrl-C skips it), the outputs are written from the
-finished trials and the same command resumes.
+Exit codes (those of ``auv-hil campaign``): 0 done; 1 a run raised (a bug; it cost as a failure) or the
+executor could not start (one line, e.g. no Ray cluster at the address); 2 a bad spec or command line (one
+line, before any run), or too many sampled combinations refused in a row; 130 Ctrl-C: the current trial
+finishes (Ctrl-C again stops it at once), the held-out evaluation still runs (Ctrl-C skips it), the outputs
+are written from the finished trials and the same command resumes.
 """
 
 from __future__ import annotations
@@ -52,6 +62,7 @@ import json
 import math
 import signal
 import sys
+import textwrap
 import time
 import typing
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -68,8 +79,6 @@ from auv_common.config import ConfigError
 if TYPE_CHECKING:
     import optuna
 
-    from auv_campaign.execute import Executor
-
 PROG = "auv-hil tune"
 #: The default range of a key: its current value times these (sign kept).
 DEFAULT_FACTORS = (0.5, 1.5)
@@ -82,10 +91,18 @@ DEFAULT_HOLDOUT_OFFSET = 1000
 FILES = ("best.toml", "trials.csv", "tune.json", "tune.html")
 #: The trial's user attribute that marks the baseline (the enqueued current values).
 BASELINE_ATTR = "baseline"
+#: The trial's user attribute of a trial the onboard refused (the loader's message); the trial is PRUNED.
+REFUSED_ATTR = "refused"
+#: This many refused trials in a row stop the study (the ranges are mostly refused combinations).
+MAX_REFUSED_IN_A_ROW = 50
 
 
 class ParamError(ValueError):
     """A bad ``--params`` entry: one line naming it."""
+
+
+class TooManyRefused(ParamError):
+    """:data:`MAX_REFUSED_IN_A_ROW` sampled combinations in a row were refused by the onboard."""
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -238,16 +255,23 @@ def resolve_params(
     return params
 
 
+_ONBOARD = "onboard"  # the key spec._check_onboard puts in front of a problem (removed again)
+
+
 def onboard_accepts(sets: Sequence[str]) -> str | None:
-    """The onboard loader's verdict on ``--set`` arguments over the packaged ``onboard.toml``."""
-    from onboard.app.config import DEFAULT_CONFIG_PATH
-    from onboard.app.runtime import build_config
+    """The onboard loader's verdict on ``--set`` arguments over the packaged ``onboard.toml``: ``None``, or
+    the problem (``TABLE: what`` without the file's path). The judge is the campaign spec's own
+    (:func:`auv_campaign.spec.check_onboard_sets`), with no key of the spec in front."""
+    from auv_campaign.spec import SpecError, check_onboard_sets
 
     try:
-        build_config(None, list(sets))
-    except ConfigError as exc:
-        base = str(DEFAULT_CONFIG_PATH)
-        return str(exc).removeprefix(base + ".").removeprefix(base + ": ")
+        check_onboard_sets(_ONBOARD, list(sets))
+    except SpecError as exc:
+        text = str(exc)
+        for prefix in (f"{_ONBOARD}.", f"{_ONBOARD}: "):
+            if text.startswith(prefix):
+                return text.removeprefix(prefix)
+        return text
     return None
 
 
@@ -285,10 +309,69 @@ def score(rows: Sequence[Mapping[str, Any]]) -> Score:
     return Score(cost, ok / n, n, errors)
 
 
+def trial_check(
+    runs: Sequence[RunSpec], accepts: Callable[[Sequence[str]], str | None]
+) -> Callable[[Mapping[str, Any]], str | None]:
+    """The judge of a trial's values before they fly: ``check(values)`` is ``None`` if the onboard takes them
+    with the overrides of every run (``accepts``, e.g. :func:`onboard_accepts`, once per distinct set of
+    overrides of the runs), else the first problem (``RUN_ID: problem``): a sampled combination may break a
+    rule across keys that each end of the ranges kept."""
+    firsts: dict[tuple[tuple[str, Any], ...], RunSpec] = {}
+    for run in runs:
+        firsts.setdefault(tuple((k, json.dumps(v)) for k, v in run.onboard), run)
+
+    def check(values: Mapping[str, Any]) -> str | None:
+        for run in firsts.values():
+            problem = accepts(with_values(run, values).onboard_sets())
+            if problem is not None:
+                return problem if not run.onboard else f"with the overrides of {run.run_id}: {problem}"
+        return None
+
+    return check
+
+
 def runs_fingerprint(runs: Sequence[RunSpec]) -> str:
     """A short hash of the runs (their full specs): a study is resumed only over the same training runs."""
     text = json.dumps([r.to_dict() for r in runs], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _seeds_text(seeds: Sequence[int]) -> str:
+    if len(seeds) <= 6:
+        return ", ".join(map(str, seeds))
+    return f"{seeds[0]} ... {seeds[-1]} ({len(seeds)} seeds)"
+
+
+def holdout_clash(train: CampaignSpec, held: CampaignSpec) -> str | None:
+    """``None``, or the problem when a held-out noise seed is also a training one (the offset moved a seed of
+    the spec onto another of its seeds)."""
+    train_seeds = {r.seed for r in train.runs}
+    same = sorted({r.seed for r in held.runs} & train_seeds)
+    if not same:
+        return None
+    return (
+        f"held-out seed {_seeds_text(same)} would also be a training seed (the spec's seeds: "
+        f"{_seeds_text(sorted(train_seeds))}): give another offset"
+    )
+
+
+def holdout_description(train: CampaignSpec, held: CampaignSpec, offset: int) -> str:
+    """What the held-out runs are, in words: every noise seed + ``offset``, the random missions drawn with
+    their seed + ``offset``, the listed missions the same (for a spec of listed missions only: the same
+    missions with other noise)."""
+    seeds = sorted({r.seed for r in train.runs})
+    text = (
+        f"the spec's {_plural(len(train.runs), 'run')} with every noise seed + {offset} "
+        f"(seeds {_seeds_text(seeds)} -> {_seeds_text([s + offset for s in seeds])})"
+    )
+    train_missions = list(dict.fromkeys(r.mission for r in train.runs))
+    held_missions = set(r.mission for r in held.runs)
+    kept = sum(1 for m in train_missions if m in held_missions)
+    redrawn = len(train_missions) - kept
+    if not redrawn:
+        return text + "; the same missions (the spec lists them all), so other noise only"
+    text += f" and the random missions drawn with random_missions.seed + {offset} (other missions)"
+    return text + (f"; the {_plural(kept, 'listed mission')} the same" if kept else "")
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -314,33 +397,58 @@ def make_sampler(name: str, params: Sequence[Param], seed: int, n_trials: int) -
     )
 
 
-def study_attrs(params: Sequence[Param], train: Sequence[RunSpec]) -> dict[str, Any]:
-    """What a resumed study must match: the parameters with their ranges, and the training runs."""
-    return {"params": [p.to_dict() for p in params], "train_runs": runs_fingerprint(train)}
+def study_attrs(
+    params: Sequence[Param], train: Sequence[RunSpec], sampler: str = "tpe", seed: int = 0
+) -> dict[str, Any]:
+    """What a resumed study must match: the parameters with their ranges, the training runs, the sampler's
+    name and ``--seed``."""
+    return {
+        "params": [p.to_dict() for p in params],
+        "train_runs": runs_fingerprint(train),
+        "sampler": sampler,
+        "seed": seed,
+    }
+
+
+def resume_seed(seed: int, n_trials_in_study: int) -> int:
+    """The sampler's seed for a session that finds ``n_trials_in_study`` trials (any state) in the study:
+    ``seed`` + that. A fresh study gets ``seed`` itself; a resumed one a seed of its own, so the sampler does
+    not draw its first points again (and the same commands still give the same study)."""
+    return seed + n_trials_in_study
+
+
+_REFUSALS = {
+    "params": "was run over other parameters or ranges",
+    "train_runs": "was run over other training runs (the spec changed)",
+}
 
 
 def open_study(
     storage: str | optuna.storages.BaseStorage,
     name: str,
-    sampler: optuna.samplers.BaseSampler,
     attrs: Mapping[str, Any],
+    sampler: Callable[[int], optuna.samplers.BaseSampler],
 ) -> optuna.Study:
-    """Create or load the study ``name`` in ``storage`` (minimise); a loaded one must have been made with the
-    same ``attrs`` (:func:`study_attrs`), else :class:`ParamError`."""
+    """Create or load the study ``name`` in ``storage`` (minimise). ``attrs`` (:func:`study_attrs`) are
+    stored in a new study; a loaded one must have the same, else :class:`ParamError` (one line; a key it
+    lacks, from an older tune, is taken as given). The study's sampler is ``sampler(seed)`` with the seed
+    :func:`resume_seed` of ``attrs["seed"]`` and the trials already there."""
     import optuna
 
+    placeholder = optuna.samplers.RandomSampler(seed=0)  # replaced below, once the trials are counted
     study = optuna.create_study(
-        storage=storage, study_name=name, sampler=sampler, direction="minimize", load_if_exists=True
+        storage=storage, study_name=name, sampler=placeholder, direction="minimize", load_if_exists=True
     )
     old = study.user_attrs
-    if not old:
-        for k, v in attrs.items():
-            study.set_user_attr(k, v)
-        return study
     for k, v in attrs.items():
-        if json.loads(json.dumps(old.get(k))) != json.loads(json.dumps(v)):
-            what = "parameters or ranges" if k == "params" else "training runs (the spec changed)"
-            raise ParamError(f"{storage}: study {name!r} was run over other {what}: use another --out")
+        if k not in old:
+            study.set_user_attr(k, v)
+        elif json.loads(json.dumps(old[k])) != json.loads(json.dumps(v)):
+            what, hint = _REFUSALS.get(k), "use another --out"
+            if what is None:
+                what, hint = f"was made with --{k} {old[k]}, not {v}", f"give --{k} {old[k]} or another --out"
+            raise ParamError(f"{storage}: study {name!r} {what}: {hint}")
+    study.sampler = sampler(resume_seed(int(attrs.get("seed", 0)), len(study.get_trials(deepcopy=False))))
     return study
 
 
@@ -351,10 +459,12 @@ def complete_trials(study: optuna.Study) -> list[optuna.trial.FrozenTrial]:
 
 
 def ensure_baseline(study: optuna.Study, params: Sequence[Param]) -> None:
-    """Enqueue the current values (marked ``baseline``) unless a finished or waiting trial has them."""
+    """Enqueue the current values (marked ``baseline``) unless a finished or waiting trial has them, or the
+    onboard refused them (a pruned baseline: they would be refused again)."""
     from optuna.trial import TrialState
 
-    for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.WAITING)):
+    states = (TrialState.COMPLETE, TrialState.WAITING, TrialState.PRUNED)
+    for t in study.get_trials(deepcopy=False, states=states):
         if t.user_attrs.get(BASELINE_ATTR):
             return
     study.enqueue_trial({p.key: p.baseline for p in params}, user_attrs={BASELINE_ATTR: True})
@@ -382,20 +492,39 @@ def run_trials(
     *,
     stop: Callable[[], bool] = lambda: False,
     on_trial: Callable[[optuna.trial.FrozenTrial], None] | None = None,
+    check: Callable[[Mapping[str, Any]], str | None] | None = None,
 ) -> bool:
     """Run trials one after the other until ``n_trials`` are finished in the study (the baseline first, see
     :func:`ensure_baseline`) or ``stop()`` says so after a trial. ``evaluate(values)`` flies one trial.
     A KeyboardInterrupt in it (or any exception once ``stop()`` is true) marks that trial failed and ends
-    the loop. Returns True if interrupted (stopped or KeyboardInterrupt) before ``n_trials``."""
+    the loop. Returns True if interrupted (stopped or KeyboardInterrupt) before ``n_trials``.
+
+    ``check(values)`` (:func:`trial_check`) judges the values before they fly: a problem makes the trial
+    PRUNED with the problem in its ``refused`` user attribute (optuna's samplers then steer away from it),
+    not flown and not counted; :data:`MAX_REFUSED_IN_A_ROW` of them in a row raise :class:`TooManyRefused`.
+    """
     from optuna.trial import TrialState
 
     ensure_baseline(study, params)
+    refused_in_a_row = 0
     while len(complete_trials(study)) < n_trials:
         if stop():
             return True
         trial = study.ask()
         values = suggest(trial, params)
         trial.set_user_attr("values", values)
+        problem = None if check is None else check(values)
+        if problem is not None:
+            trial.set_user_attr(REFUSED_ATTR, problem)
+            study.tell(trial, state=TrialState.PRUNED)
+            refused_in_a_row += 1
+            if refused_in_a_row >= MAX_REFUSED_IN_A_ROW:
+                raise TooManyRefused(
+                    f"{refused_in_a_row} sampled combinations in a row were refused by the onboard "
+                    f"(the last: {problem}): narrow the --params ranges"
+                )
+            continue
+        refused_in_a_row = 0
         try:
             result = evaluate(values)
         except KeyboardInterrupt:
@@ -440,9 +569,18 @@ def best_trial(study: optuna.Study) -> optuna.trial.FrozenTrial | None:
 # Products
 
 
+def refused_trials(study: optuna.Study) -> list[optuna.trial.FrozenTrial]:
+    """The trials the onboard refused before they flew (PRUNED, with the problem in ``refused``)."""
+    from optuna.trial import TrialState
+
+    pruned = study.get_trials(deepcopy=False, states=(TrialState.PRUNED,))
+    return [t for t in pruned if REFUSED_ATTR in t.user_attrs]
+
+
 def trial_rows(trials: Sequence[optuna.trial.FrozenTrial], keys: Sequence[str]) -> list[dict[str, Any]]:
-    """One row per trial for ``trials.csv``: number, state, cost, success_rate, runs, errors, baseline and
-    one column per key (the values flown)."""
+    """One row per trial for ``trials.csv``: number, state, cost, success_rate, runs, errors, baseline, the
+    onboard's problem with a refused (PRUNED) trial, and one column per key (the values flown, or sampled
+    for a refused trial)."""
     rows = []
     for t in trials:
         values = trial_values(t)
@@ -454,6 +592,7 @@ def trial_rows(trials: Sequence[optuna.trial.FrozenTrial], keys: Sequence[str]) 
             "runs": t.user_attrs.get("runs"),
             "errors": t.user_attrs.get("errors"),
             "baseline": bool(t.user_attrs.get(BASELINE_ATTR)),
+            "refused": t.user_attrs.get(REFUSED_ATTR),
         }
         row.update({k: values.get(k) for k in keys})
         rows.append(row)
@@ -461,7 +600,7 @@ def trial_rows(trials: Sequence[optuna.trial.FrozenTrial], keys: Sequence[str]) 
 
 
 def write_trials_csv(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], path: Path) -> None:
-    columns = ["number", "state", "cost", "success_rate", "runs", "errors", "baseline", *keys]
+    columns = ["number", "state", "cost", "success_rate", "runs", "errors", "baseline", "refused", *keys]
     with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
         writer.writeheader()
@@ -535,12 +674,13 @@ def best_header(doc: Mapping[str, Any]) -> list[str]:
         f"auv-hil tune: study {doc['study']!r} over {doc['spec']} "
         f"({_plural(doc['trials']['complete'], 'trial')}, sampler {doc['sampler']}, seed {doc['seed']})",
         "cost = mean run_cost per run (auv_campaign.results.run_cost: 10 per failure + final error m",
-        "+ RMS cross-track m + 0.1 x control effort rad; lower is better); held-out = the same spec with",
-        f"seeds + {doc['holdout_seed_offset']} (noise and random missions)",
+        "+ RMS cross-track m + 0.1 x control effort rad; lower is better);",
+        *textwrap.wrap(f"held-out = {doc['holdout']['description']}", 100),
         "",
         *results_lines(doc),
         "",
-        "the same as auv-onboard run arguments:",
+        "merge these keys into onboard.toml (a file of its own as --config would drop every other",
+        "packaged setting), or use the --set lines: the same as auv-onboard run arguments:",
         *(f"  --set {set_argument(k, v)}" for k, v in best.get("values", {}).items()),
     ]
     if base:
@@ -623,7 +763,7 @@ def write_html(path: Path, doc: Mapping[str, Any], rows: Sequence[Mapping[str, A
         (
             [
                 html_text(r["number"]) + (" (baseline)" if r["baseline"] else ""),
-                html_text(r["state"]),
+                html_text(r["state"]) + (f" (refused: {html.escape(r['refused'])})" if r["refused"] else ""),
                 html_text(r["cost"]),
                 html_text(_pct(r["success_rate"])),
                 *(num(r.get(k)) for k in keys),
@@ -632,13 +772,16 @@ def write_html(path: Path, doc: Mapping[str, Any], rows: Sequence[Mapping[str, A
         ),
     )
     n_train = (doc.get("baseline") or {}).get("train_runs")
-    n_hold = (doc.get("baseline") or {}).get("holdout_runs")
+    n_hold = doc["holdout"]["runs"]
+    n_refused = doc["trials"].get("refused", 0)
+    refused = f" ({_plural(n_refused, 'more trial')} refused by the onboard, not flown)" if n_refused else ""
     intro = (
         f"{html.escape(doc['spec'])}: {doc['trials']['complete']} finished trials (sampler "
         f"{html.escape(doc['sampler'])}, seed {doc['seed']}), {_plural(n_train or 0, 'training run')} "
-        f"a trial; held-out: {_plural(n_hold or 0, 'run')} with seeds + {doc['holdout_seed_offset']}. "
-        "Cost: mean run_cost (10 per failure + final error m + RMS cross-track m + 0.1 x control effort "
-        "rad); lower is better." + (" <b>Interrupted.</b>" if doc.get("interrupted") else "")
+        f"a trial{refused}; held-out: {_plural(n_hold, 'run')}, "
+        f"{html.escape(doc['holdout']['description'])}. Cost: mean run_cost (10 per failure + final error "
+        "m + RMS cross-track m + 0.1 x control effort rad); lower is better."
+        + (" <b>Interrupted.</b>" if doc.get("interrupted") else "")
     )
     title = html.escape(doc["study"])
     page = f"""<!DOCTYPE html>
@@ -662,6 +805,7 @@ def write_html(path: Path, doc: Mapping[str, Any], rows: Sequence[Mapping[str, A
 
 def build_doc(
     spec: CampaignSpec,
+    held: CampaignSpec,
     study: optuna.Study,
     params: Sequence[Param],
     args: argparse.Namespace,
@@ -681,11 +825,17 @@ def build_doc(
         "sampler": args.sampler,
         "seed": args.seed,
         "holdout_seed_offset": args.holdout_seed_offset,
+        "holdout": {
+            "seed_offset": args.holdout_seed_offset,
+            "description": holdout_description(spec, held, args.holdout_seed_offset),
+            "runs": len(held.runs),
+        },
         "params": [p.to_dict() for p in params],
         "trials": {
             "requested": args.trials,
             "complete": sum(1 for t in trials if t.state == TrialState.COMPLETE),
             "failed": sum(1 for t in trials if t.state == TrialState.FAIL),
+            "refused": len(refused_trials(study)),
         },
         "baseline": None if base is None else outcome(base, holdout.get(base.number)),
         "best": None if best is None else outcome(best, holdout.get(best.number)),
@@ -784,38 +934,14 @@ def _sigint(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
-@contextlib.contextmanager
-def _ray_session(executor: Executor) -> Iterator[None]:
-    """One Ray session for all the trials (else every trial would start and stop its own)."""
-    if executor.kind != "ray":
-        yield
-        return
-    import ray
-
-    from auv_campaign.execute import ray_runtime_env
-
-    if ray.is_initialized():
-        yield
-        return
-    if executor.address:
-        ray.init(address=executor.address, runtime_env=ray_runtime_env(), log_to_driver=False)
-    else:
-        # address="local": a new local Ray even when one already runs on this machine (``ray.init()`` would
-        # join it, and refuse num_cpus).
-        ray.init(address="local", num_cpus=executor.workers, include_dashboard=False, log_to_driver=False)
-    try:
-        yield
-    finally:
-        ray.shutdown()
-
-
 def tune_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
         description=(
             "Tune onboard settings with optuna: each trial flies every run of the spec with the trial's "
             "values as onboard overrides and costs the mean run_cost; trial 0 is the current values. The "
-            "baseline and the best are then flown on held-out runs (other seeds). Writes DIR/best.toml, "
+            "baseline and the best are then flown on held-out runs (noise seeds + the offset, random "
+            "missions redrawn; listed missions the same). Writes DIR/best.toml, "
             "DIR/trials.csv, DIR/tune.json, DIR/tune.html; the study is DIR/study.db (the same command "
             "resumes it)."
         ),
@@ -834,12 +960,20 @@ def tune_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="the output directory (created; its study.db is resumed)")
     _executor_args(p)
     p.add_argument("--sampler", choices=SAMPLERS, default="tpe", help="optuna sampler (default: tpe)")
-    p.add_argument("--seed", type=int, default=0, help="the sampler's seed (default: 0)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="the sampler's seed (default: 0); a resumed study seeds it with this + its trials so far",
+    )
     p.add_argument(
         "--holdout-seed-offset",
         type=int,
         default=DEFAULT_HOLDOUT_OFFSET,
-        help=f"held-out runs: the spec's seeds + this (default: {DEFAULT_HOLDOUT_OFFSET})",
+        help="held-out runs: the spec's runs with every noise seed + this and the random missions drawn "
+        "with random_missions.seed + this (a spec of listed missions only: the same missions, other "
+        "noise); no held-out seed may be a training seed "
+        f"(default: {DEFAULT_HOLDOUT_OFFSET})",
     )
     p.add_argument("--json", action="store_true", help="print tune.json as one JSON object")
     return p
@@ -866,6 +1000,9 @@ def tune_main(argv: list[str]) -> int:
                          random_seed_offset=args.holdout_seed_offset)  # fmt: skip
     except (ConfigError, OSError) as exc:
         return _fail(PROG, str(exc))
+    clash = holdout_clash(train, held)
+    if clash is not None:
+        return _fail(PROG, f"--holdout-seed-offset {args.holdout_seed_offset}: {clash}")
     from onboard.app.runtime import build_config
 
     try:
@@ -891,12 +1028,19 @@ def tune_main(argv: list[str]) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     storage = f"sqlite:///{(out / 'study.db').resolve()}"
-    sampler = make_sampler(args.sampler, params, args.seed, args.trials)
+    attrs = study_attrs(params, train.runs, args.sampler, args.seed)
     try:
-        study = open_study(storage, train.name, sampler, study_attrs(params, train.runs))
+        study = open_study(
+            storage, train.name, attrs, lambda seed: make_sampler(args.sampler, params, seed, args.trials)
+        )
     except ParamError as exc:
         return _fail(PROG, str(exc).replace(storage, str(out / "study.db")))
-    return _tune(study, train, held, params, args, out)
+    from auv_campaign.execute import ExecutorError
+
+    try:
+        return _tune(study, train, held, params, args, out)
+    except ExecutorError as exc:
+        return _fail(PROG, str(exc), EXIT_RUN_ERROR)
 
 
 def _tune(
@@ -907,14 +1051,19 @@ def _tune(
     args: argparse.Namespace,
     out: Path,
 ) -> int:
-    from auv_campaign.execute import Executor, execute
+    from auv_campaign import execute as ex
 
-    executor = Executor("ray" if args.ray is not None else "local", args.workers, args.ray or None)
+    executor = ex.Executor("ray" if args.ray is not None else "local", args.workers, args.ray or None)
+    execute = ex.execute
     show = not args.no_progress and not args.json
     t0 = time.monotonic()
     stop = _StopFlag()
     done = len(complete_trials(study))
-    with _ray_session(executor):
+    check = trial_check(train.runs, onboard_accepts)
+    gave_up: str | None = None
+    # One Ray session for all the trials (else every trial would start and stop its own).
+    session = ex.ray_session(executor.workers, executor.address) if executor.kind == "ray" else None
+    with session or contextlib.nullcontext():
         with _TrialBar(args.trials, done, len(train.runs), train.name, show) as bar:
 
             def evaluate(values: dict[str, float]) -> Score:
@@ -927,7 +1076,12 @@ def _tune(
                 bar.trial_done(None if best is None else best.value, trial.value)
 
             with _sigint(stop.handler):
-                interrupted = run_trials(study, params, evaluate, args.trials, stop=stop, on_trial=on_trial)
+                try:
+                    interrupted = run_trials(
+                        study, params, evaluate, args.trials, stop=stop, on_trial=on_trial, check=check
+                    )
+                except TooManyRefused as exc:
+                    interrupted, gave_up = False, str(exc)
 
         # Held-out: the baseline and the best, in one batch (run ids prefixed so they do not collide).
         holdout: dict[int, Score] = {}
@@ -950,7 +1104,7 @@ def _tune(
                 interrupted = True
                 print(f"{PROG}: held-out evaluation skipped", file=sys.stderr)  # noqa: T201
 
-    doc = build_doc(train, study, params, args, holdout, interrupted, out)
+    doc = build_doc(train, held, study, params, args, holdout, interrupted, out)
     doc["wall_time_s"] = round(time.monotonic() - t0, 2)
     doc["executor"] = executor.describe()
     write_outputs(out, doc, study, [p.key for p in params])
@@ -969,6 +1123,8 @@ def _tune(
         print(f"{PROG}: some runs raised (a bug, costed as failures): see the errors column of trials.csv",  # noqa: T201
               file=sys.stderr)  # fmt: skip
         return EXIT_RUN_ERROR
+    if gave_up is not None:
+        return _fail(PROG, gave_up)
     return EXIT_OK
 
 
@@ -978,11 +1134,12 @@ def _plural(n: int, word: str) -> str:
 
 def summary_lines(doc: Mapping[str, Any]) -> list[str]:
     """The printed summary: what ran, train vs held-out of baseline and best, the best values, the files."""
+    refused = doc["trials"].get("refused", 0)
     lines = [
         f"{doc['study']}: {_plural(doc['trials']['complete'], 'trial')} ({doc['sampler']}, "
-        f"seed {doc['seed']}) in "
-        f"{doc.get('wall_time_s', 0):.1f} s on {doc.get('executor', '?')}; held-out: seeds + "
-        f"{doc['holdout_seed_offset']}",
+        f"seed {doc['seed']}) in {doc.get('wall_time_s', 0):.1f} s on {doc.get('executor', '?')}"
+        + (f"; {refused} more refused by the onboard (not flown)" if refused else ""),
+        f"held-out: {doc['holdout']['description']}",
         *results_lines(doc),
     ]
     best = doc.get("best")
@@ -994,19 +1151,24 @@ def summary_lines(doc: Mapping[str, Any]) -> list[str]:
 
 __all__ = [
     "DEFAULT_FACTORS",
+    "MAX_REFUSED_IN_A_ROW",
     "SIGNIFICANT_DIGITS",
     "ZERO_SCALE",
     "Param",
     "ParamError",
     "Score",
+    "TooManyRefused",
     "best_toml",
     "config_value",
     "default_range",
+    "holdout_description",
     "parse_params",
     "resolve_params",
+    "resume_seed",
     "round_sig",
     "run_trials",
     "score",
+    "trial_check",
     "tune_main",
     "with_values",
 ]

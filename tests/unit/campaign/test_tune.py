@@ -1,5 +1,6 @@
 """``auv-hil tune``'s pieces without flying: --params parsing, ranges, the onboard keys, the override merge,
-scores, the trial loop on a toy objective (baseline first, resumption, Ctrl-C), and the files it writes."""
+scores, the trial loop on a toy objective (baseline first, resumption with new points, Ctrl-C, refused
+combinations), the held-out set, the files it writes, and the command with a stand-in executor."""
 
 from __future__ import annotations
 
@@ -207,12 +208,25 @@ def toy(values: dict[str, float]) -> Score:
     return Score(1.0 + (kp + 0.45) ** 2 + (kd + 0.2) ** 2, 1.0, 3, 0)
 
 
-def new_study(tmp_path: Path, params: list[Param] = [KP5, KD5]) -> optuna.Study:  # noqa: B006
-    sampler = tune.make_sampler("tpe", params, seed=0, n_trials=8)
+def attrs_of(params: list[Param], sampler: str = "tpe", seed: int = 0, runs: str = "x") -> dict[str, Any]:
+    return {"params": [p.to_dict() for p in params], "train_runs": runs, "sampler": sampler, "seed": seed}
+
+
+def new_study(
+    tmp_path: Path,
+    params: list[Param] = [KP5, KD5],  # noqa: B006
+    *,
+    seed: int = 0,
+    n_trials: int = 8,
+    seeds: list[int] | None = None,
+) -> optuna.Study:
+    def sampler(s: int) -> optuna.samplers.BaseSampler:
+        if seeds is not None:
+            seeds.append(s)
+        return tune.make_sampler("tpe", params, seed=s, n_trials=n_trials)
+
     storage = f"sqlite:///{tmp_path / 'study.db'}"
-    return tune.open_study(
-        storage, "t", sampler, {"params": [p.to_dict() for p in params], "train_runs": "x"}
-    )
+    return tune.open_study(storage, "t", attrs_of(params, seed=seed), sampler)
 
 
 def test_run_trials_baseline_first_then_rounded_samples(tmp_path: Path) -> None:
@@ -247,10 +261,65 @@ def test_open_study_refuses_other_params_or_runs(tmp_path: Path) -> None:
     new_study(tmp_path)
     with pytest.raises(ParamError, match="other parameters or ranges"):
         new_study(tmp_path, [KP5])
-    sampler = tune.make_sampler("tpe", [KP5, KD5], seed=0, n_trials=8)
-    attrs = {"params": [KP5.to_dict(), KD5.to_dict()], "train_runs": "y"}
+
+    def sampler(s: int) -> optuna.samplers.BaseSampler:
+        return tune.make_sampler("tpe", [KP5, KD5], seed=s, n_trials=8)
+
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
     with pytest.raises(ParamError, match="other training runs"):
-        tune.open_study(f"sqlite:///{tmp_path / 'study.db'}", "t", sampler, attrs)
+        tune.open_study(storage, "t", attrs_of([KP5, KD5], runs="y"), sampler)
+
+
+@pytest.mark.parametrize(
+    ("sampler", "seed", "words"),
+    [
+        ("cmaes", 0, "was made with --sampler tpe, not cmaes: give --sampler tpe or another --out"),
+        ("tpe", 7, "was made with --seed 0, not 7: give --seed 0 or another --out"),
+    ],
+)
+def test_open_study_refuses_another_sampler_or_seed(
+    tmp_path: Path, sampler: str, seed: int, words: str
+) -> None:
+    new_study(tmp_path)
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    with pytest.raises(ParamError, match=words) as info:
+        tune.open_study(
+            storage, "t", attrs_of([KP5, KD5], sampler, seed), lambda s: optuna.samplers.RandomSampler(s)
+        )
+    assert "\n" not in str(info.value)
+    stored = optuna.load_study(study_name="t", storage=storage).user_attrs
+    assert (stored["sampler"], stored["seed"]) == ("tpe", 0)  # in the study, unchanged
+
+
+def test_open_study_adopts_the_sampler_and_seed_of_an_older_study(tmp_path: Path) -> None:
+    # a study made before tune stored them: taken as given, then kept
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    old = optuna.create_study(storage=storage, study_name="t")
+    old.set_user_attr("params", [KP5.to_dict(), KD5.to_dict()])
+    old.set_user_attr("train_runs", "x")
+    study = new_study(tmp_path, seed=3)
+    assert (study.user_attrs["sampler"], study.user_attrs["seed"]) == ("tpe", 3)
+
+
+def test_a_resumed_study_draws_new_points(tmp_path: Path) -> None:
+    # GIVEN a study whose random start-up (10 trials for --trials 40) is under way: baseline + 2 draws
+    seeds: list[int] = []
+    tune.run_trials(new_study(tmp_path, n_trials=40, seeds=seeds), [KP5, KD5], toy, 3)
+    # WHEN the same command resumes it to 5 trials
+    again = new_study(tmp_path, n_trials=40, seeds=seeds)
+    tune.run_trials(again, [KP5, KD5], toy, 5)
+    # THEN its sampler was seeded with seed + the trials there, and it did not draw the first points again
+    assert seeds == [0, 3] and tune.resume_seed(0, 3) == 3
+    first, resumed = (
+        [tune.trial_values(t) for t in again.trials[1:3]],
+        [tune.trial_values(t) for t in again.trials[3:5]],
+    )
+    assert not any(v in first for v in resumed), (first, resumed)
+    # (re-seeding with the seed itself, as before, does repeat them)
+    repeat = tune.make_sampler("tpe", [KP5, KD5], seed=0, n_trials=40)
+    other = optuna.create_study(sampler=repeat)
+    tune.run_trials(other, [KP5, KD5], toy, 3)
+    assert [tune.trial_values(t) for t in other.trials[1:3]] == first
 
 
 def test_run_trials_stops_after_the_current_trial(tmp_path: Path) -> None:
@@ -317,8 +386,11 @@ def doc_of(
     study: optuna.Study, params: list[Param], holdout: dict[int, Score], tmp_path: Path
 ) -> dict[str, Any]:
     args = type("A", (), {"sampler": "tpe", "seed": 0, "holdout_seed_offset": 1000, "trials": 8})()
-    spec = parse_spec(SPEC, "t.yaml")
-    return tune.build_doc(spec, study, params, args, holdout, False, tmp_path)  # type: ignore[arg-type]
+    spec, held = (
+        parse_spec(SPEC, "t.yaml"),
+        parse_spec(SPEC, "t.yaml", seed_offset=1000, random_seed_offset=1000),
+    )
+    return tune.build_doc(spec, held, study, params, args, holdout, False, tmp_path)  # type: ignore[arg-type]
 
 
 def test_outputs_tell_train_and_held_out_of_baseline_and_best(tmp_path: Path) -> None:
@@ -339,9 +411,15 @@ def test_outputs_tell_train_and_held_out_of_baseline_and_best(tmp_path: Path) ->
     header = [line for line in snippet.splitlines() if line.startswith("#")]
     assert any("baseline (#0)" in line and "1.5000" in line and "50.0 %" in line for line in header)
     assert any(f"best (#{best.number})" in line and "1.2000" in line for line in header)
-    sets = [line.split("--set ")[1] for line in header if "--set " in line]
+    sets = [line.removeprefix("#   --set ") for line in header if line.startswith("#   --set ")]
     assert len(sets) == 2
     build_config(None, sets)
+    text = " ".join(line.lstrip("# ") for line in header)
+    assert (
+        "merge these keys into onboard.toml (a file of its own as --config would drop every other packaged "
+        "setting), or use the --set lines" in text
+    )
+    assert "held-out = the spec's 4 runs with every noise seed + 1000 (seeds 0, 1 -> 1000, 1001)" in text
 
     with (tmp_path / "trials.csv").open(newline="") as f:
         rows = list(csv.DictReader(f))
@@ -350,9 +428,16 @@ def test_outputs_tell_train_and_held_out_of_baseline_and_best(tmp_path: Path) ->
         rows[0]["baseline"] == "True" and float(rows[0][KP5.key]) == -0.6 and rows[0]["state"] == "COMPLETE"
     )
     assert json.loads((tmp_path / "tune.json").read_text()) == doc
+    assert doc["holdout"] == {
+        "seed_offset": 1000,
+        "description": "the spec's 4 runs with every noise seed + 1000 (seeds 0, 1 -> 1000, 1001); the same "
+        "missions (the spec lists them all), so other noise only",
+        "runs": 4,
+    }
     page = (tmp_path / "tune.html").read_text()
     assert page.count("data:image/png;base64,") == 3 and 'src="http' not in page
     assert "held-out success" in page and "[control.improved]" in page
+    assert "the same missions (the spec lists them all), so other noise only" in page
 
 
 def test_outputs_without_a_finished_trial(tmp_path: Path) -> None:
@@ -369,7 +454,8 @@ def test_summary_lines_name_the_files(tmp_path: Path) -> None:
     tune.run_trials(study, [KP5, KD5], toy, 2)
     doc = doc_of(study, [KP5, KD5], {}, tmp_path)
     lines = tune.summary_lines(doc)
-    assert lines[0].startswith("t: 2 trials (tpe, seed 0)")
+    assert lines[0].startswith("t: 2 trials (tpe, seed 0)") and "refused" not in lines[0]
+    assert lines[1].startswith("held-out: the spec's 4 runs with every noise seed + 1000")
     assert any(line.startswith("baseline (#0)") and line.rstrip().endswith("-") for line in lines)
     assert lines[-1].startswith("files: ") and str(tmp_path / "best.toml") in lines[-1]
 
@@ -384,6 +470,14 @@ def test_summary_lines_name_the_files(tmp_path: Path) -> None:
         (["--params", "control.improved.Kp5", "--trials", "0"], "--trials must be >= 1"),
         (["--params", "control.improved.Kp5", "--workers", "0"], "--workers must be >= 1"),
         (["--params", "control.improved.Kp5", "--holdout-seed-offset", "0"], "--holdout-seed-offset 0 would"),
+        (
+            ["--params", "control.improved.Kp5", "--holdout-seed-offset", "1"],
+            "--holdout-seed-offset 1: held-out seed 1 would also be a training seed (the spec's seeds: 0, 1)",
+        ),
+        (
+            ["--params", "control.improved.Kp5", "--holdout-seed-offset", "-1"],
+            "t.yaml: sweep.seed[0]: seed + offset",
+        ),
     ],
 )
 def test_tune_main_refuses_before_any_run(
@@ -399,7 +493,10 @@ def test_tune_main_refuses_before_any_run(
         argv += ["--trials", "2"]
     assert tune.tune_main(argv) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"auv-hil tune: {words}") and err.count("\n") == 1, err
+    assert err.startswith(f"auv-hil tune: {words}") or err.startswith(
+        f"auv-hil tune: {spec.parent}/{words}"
+    ), err
+    assert err.count("\n") == 1, err
     assert not out.exists()
 
 
@@ -415,3 +512,251 @@ def test_tune_main_refuses_a_bad_spec(tmp_path: Path, capsys: pytest.CaptureFixt
     ]
     assert tune.tune_main(argv) == 2
     assert "no such spec file" in capsys.readouterr().err
+
+
+# --- the onboard's judge, refused combinations -------------------------------------------------------------
+AREA = [
+    Param("failsafe.area_x_min_m", -10.0, 10.0, -500.0),
+    Param("failsafe.area_x_max_m", -9.0, 11.0, 500.0),
+]  # every end alone and the lows / highs together load; min >= max inside does not
+
+
+def test_onboard_accepts_is_the_spec_judge_without_a_key_in_front() -> None:
+    assert tune.onboard_accepts(["control.improved.Kp5=-0.5"]) is None
+    assert tune.onboard_accepts(["control.improved.rudder_per_curvature_radm=-1"]) == (
+        "control.improved: rudder_per_curvature_radm must be >= 0"
+    )
+    assert (
+        tune.onboard_accepts(['control.improved.Kp5="a"'])
+        == "control.improved.Kp5: expected a number, got 'a'"
+    )
+    assert tune.onboard_accepts(["nokey=1"]) == "--set 'nokey=1': expected TABLE.KEY=VALUE"
+    assert tune.onboard_accepts(["failsafe.area_x_min_m=5", "failsafe.area_x_max_m=1"]) == (
+        "failsafe: need area_x_min_m < area_x_max_m"
+    )
+
+
+def test_trial_check_judges_the_values_with_every_runs_overrides() -> None:
+    runs = parse_spec(SPEC, "t.yaml").runs  # two runs without overrides, two with Kp5 and lookahead_m
+    seen: list[list[str]] = []
+
+    def accepts(sets: Any) -> str | None:
+        seen.append(list(sets))
+        return tune.onboard_accepts(sets)
+
+    check = tune.trial_check(runs, accepts)
+    assert check({AREA[0].key: -5.0, AREA[1].key: 5.0}) is None
+    assert len(seen) == 2  # once per distinct set of overrides, not per run
+    assert seen[1][:2] == ["control.improved.Kp5=-0.3", "guidance.lookahead_m=2.5"]
+    assert check({AREA[0].key: 5.0, AREA[1].key: 1.0}) == "failsafe: need area_x_min_m < area_x_max_m"
+    # a run's own override can be what breaks the rule
+    spec = dict(SPEC, sweep={"seed": [0], "onboard": [{}, {"failsafe.area_x_max_m": 2.0}]})
+    check = tune.trial_check(parse_spec(spec, "t.yaml").runs, tune.onboard_accepts)
+    problem = check({AREA[0].key: 3.0})
+    assert (
+        problem is not None
+        and problem.startswith("with the overrides of line_s0_c0d0_basin_o1_nominal: failsafe: need")
+        and "area_x_min_m" in problem
+    )
+
+
+def test_run_trials_prunes_refused_combinations_and_goes_on(tmp_path: Path) -> None:
+    study = new_study(tmp_path, AREA)
+    check = tune.trial_check(parse_spec(SPEC, "t.yaml").runs, tune.onboard_accepts)
+    flown: list[dict[str, float]] = []
+
+    def evaluate(values: dict[str, float]) -> Score:
+        flown.append(values)
+        return Score(abs(values[AREA[0].key]) + abs(values[AREA[1].key]), 1.0, 4, 0)
+
+    assert not tune.run_trials(study, AREA, evaluate, 12, check=check)
+    states = [t.state.name for t in study.trials]
+    refused = tune.refused_trials(study)
+    assert states.count("COMPLETE") == 12 == len(flown) and states.count("PRUNED") == len(refused) > 0
+    assert all(v[AREA[0].key] < v[AREA[1].key] for v in flown)  # no refused combination flew
+    for t in refused:
+        values = tune.trial_values(t)
+        assert values[AREA[0].key] >= values[AREA[1].key]
+        assert t.user_attrs["refused"] == "failsafe: need area_x_min_m < area_x_max_m"
+    assert "errors" not in refused[0].user_attrs  # not a run error
+    doc = doc_of(study, AREA, {}, tmp_path)
+    assert doc["trials"]["refused"] == len(refused) and doc["trials"]["failed"] == 0
+    assert f"; {len(refused)} more refused by the onboard (not flown)" in tune.summary_lines(doc)[0]
+    tune.write_outputs(tmp_path, doc, study, [p.key for p in AREA])
+    with (tmp_path / "trials.csv").open(newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["state"] == "PRUNED"]
+    assert len(rows) == len(refused) and all(
+        r["refused"].startswith("failsafe: need") and r["cost"] == "" for r in rows
+    )
+    assert "refused by the onboard, not flown" in (tmp_path / "tune.html").read_text()
+
+
+def test_run_trials_gives_up_after_too_many_refusals_in_a_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(tune, "MAX_REFUSED_IN_A_ROW", 4)
+    study = new_study(tmp_path)
+
+    with pytest.raises(tune.TooManyRefused, match=r"4 sampled combinations in a row were refused .* no"):
+        tune.run_trials(study, [KP5, KD5], toy, 5, check=lambda values: "no")
+    assert [t.state.name for t in study.trials] == ["PRUNED"] * 4
+    assert [bool(t.user_attrs.get("baseline")) for t in study.trials] == [True, False, False, False]  # once
+
+
+# --- the held-out set -----------------------------------------------------------------------------------
+RANDOM = dict(SPEC, random_missions={"count": 2, "seed": 7, "area_m": 40})
+
+
+def test_holdout_description_says_what_moved() -> None:
+    train = parse_spec(RANDOM, "t.yaml")
+    held = parse_spec(RANDOM, "t.yaml", seed_offset=50, random_seed_offset=50)
+    assert tune.holdout_description(train, held, 50) == (
+        "the spec's 12 runs with every noise seed + 50 (seeds 0, 1 -> 50, 51) and the random missions drawn "
+        "with random_missions.seed + 50 (other missions); the 1 listed mission the same"
+    )
+    only_random = {k: v for k, v in RANDOM.items() if k != "missions"}
+    text = tune.holdout_description(
+        parse_spec(only_random, "t.yaml"),
+        parse_spec(only_random, "t.yaml", seed_offset=5, random_seed_offset=5),
+        5,
+    )
+    assert text.endswith("drawn with random_missions.seed + 5 (other missions)")
+    many = dict(SPEC, sweep={"seed": list(range(10))})
+    text = tune.holdout_description(
+        parse_spec(many, "t.yaml"), parse_spec(many, "t.yaml", seed_offset=100), 100
+    )
+    assert "(seeds 0 ... 9 (10 seeds) -> 100 ... 109 (10 seeds)); the same missions" in text
+
+
+def test_holdout_clash_names_the_shared_seed() -> None:
+    spec = dict(SPEC, sweep={"seed": [0, 5, 10]})
+    train = parse_spec(spec, "t.yaml")
+    assert tune.holdout_clash(train, parse_spec(spec, "t.yaml", seed_offset=1000)) is None
+    assert tune.holdout_clash(train, parse_spec(spec, "t.yaml", seed_offset=5)) == (
+        "held-out seed 5, 10 would also be a training seed (the spec's seeds: 0, 5, 10): give another offset"
+    )
+
+
+# --- the command with a stand-in executor (no flight) -------------------------------------------------------
+class FakeExecute:
+    """Stands in for :func:`auv_campaign.execute.execute`: a row per run whose cost follows the run's onboard
+    overrides; it checks that every run it gets is one the onboard takes."""
+
+    def __init__(self) -> None:
+        self.batches: list[list[Any]] = []
+
+    def __call__(self, runs: Any, out_dir: Any, executor: Any, on_record: Any = None) -> list[dict[str, Any]]:
+        assert out_dir is None
+        self.batches.append(list(runs))
+        records = []
+        for run in runs:
+            assert tune.onboard_accepts(run.onboard_sets()) is None, run.onboard
+            err = sum(abs(float(v)) for _, v in run.onboard) / 1000.0
+            row = {"run_id": run.run_id, "planned": True, "success": True, "final_position_error_m": err,
+                   "rms_cross_track_m": 0.1, "control_effort_rad": 1.0, "error": ""}  # fmt: skip
+            record = {"run_id": run.run_id, "row": row}
+            if on_record is not None:
+                on_record(record)
+            records.append(record)
+        return records
+
+
+@pytest.fixture
+def fake_execute(monkeypatch: pytest.MonkeyPatch) -> FakeExecute:
+    from auv_campaign import execute
+
+    fake = FakeExecute()
+    monkeypatch.setattr(execute, "execute", fake)
+    return fake
+
+
+def spec_file(tmp_path: Path) -> Path:
+    import yaml
+
+    path = tmp_path / "t.yaml"
+    path.write_text(yaml.safe_dump(SPEC))
+    return path
+
+
+AREA_PARAMS = "failsafe.area_x_min_m=-10:10,failsafe.area_x_max_m=-9:11"
+
+
+def test_tune_main_prunes_refused_combinations_and_counts_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
+) -> None:
+    out = tmp_path / "out"
+    argv = [str(spec_file(tmp_path)), "--params", AREA_PARAMS, "--trials", "10", "--out", str(out),
+            "--workers", "1", "--no-progress", "--json"]  # fmt: skip
+    assert tune.tune_main(argv) == 0, capsys.readouterr().err
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["trials"]["complete"] == 10 and doc["trials"]["refused"] > 0 and doc["trials"]["failed"] == 0
+    assert len(fake_execute.batches) == 10 + 1  # the trials, then one held-out batch
+    assert json.loads((out / "tune.json").read_text())["trials"]["refused"] == doc["trials"]["refused"]
+    assert doc["best"]["train_errors"] == 0
+
+
+def test_tune_main_resumes_only_with_the_same_sampler_and_seed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
+) -> None:
+    out = tmp_path / "out"
+    argv = [
+        str(spec_file(tmp_path)),
+        "--params",
+        KP5.key,
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--no-progress",
+    ]
+    assert tune.tune_main([*argv, "--trials", "2"]) == 0
+    capsys.readouterr()
+    for extra, words in (
+        (["--seed", "1"], "was made with --seed 0, not 1: give --seed 0 or another --out"),
+        (["--sampler", "cmaes", "--params", f"{KP5.key},{KD5.key}"], "other parameters or ranges"),
+    ):
+        assert tune.tune_main([*argv, "--trials", "3", *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"auv-hil tune: {out / 'study.db'}: study 't' ") and words in err, err
+        assert err.count("\n") == 1
+    assert tune.tune_main([*argv, "--trials", "4"]) == 0  # the same: resumed
+    study = optuna.load_study(study_name="t", storage=f"sqlite:///{out / 'study.db'}")
+    assert len(study.trials) == 4 and (study.user_attrs["sampler"], study.user_attrs["seed"]) == ("tpe", 0)
+
+
+def test_tune_main_refuses_another_sampler_on_resume(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
+) -> None:
+    out = tmp_path / "out"
+    argv = [str(spec_file(tmp_path)), "--params", f"{KP5.key},{KD5.key}", "--out", str(out), "--workers", "1",
+            "--no-progress", "--trials", "2"]  # fmt: skip
+    assert tune.tune_main(argv) == 0
+    capsys.readouterr()
+    assert tune.tune_main([*argv, "--sampler", "cmaes"]) == 2
+    err = capsys.readouterr().err
+    assert "was made with --sampler tpe, not cmaes: give --sampler tpe or another --out" in err
+    assert err.count("\n") == 1
+
+
+def test_tune_main_turns_an_executor_error_into_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import contextlib
+
+    from auv_campaign import execute
+
+    seen: list[tuple[int, str | None]] = []
+
+    @contextlib.contextmanager
+    def session(workers: int, address: str | None) -> Any:
+        seen.append((workers, address))
+        raise execute.ExecutorError(f"cannot join the Ray cluster at {address}: Connection refused")
+        yield
+
+    monkeypatch.setattr(execute, "ray_session", session)
+    argv = [str(spec_file(tmp_path)), "--params", KP5.key, "--trials", "2", "--out", str(tmp_path / "out"),
+            "--workers", "3", "--ray", "10.0.0.1:6379", "--no-progress"]  # fmt: skip
+    assert tune.tune_main(argv) == 1
+    err = capsys.readouterr().err
+    assert err == "auv-hil tune: cannot join the Ray cluster at 10.0.0.1:6379: Connection refused\n"
+    assert seen == [(3, "10.0.0.1:6379")]
