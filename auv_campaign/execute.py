@@ -61,6 +61,7 @@ def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
     caught and reported in the row's ``error`` column, so one bad run does not end the campaign."""
     from auv_campaign.runner import fly
 
+    quiet_vehicle_logs()
     spec = RunSpec.from_dict(spec_dict)
     try:
         record = fly(spec).to_json(spec)
@@ -110,15 +111,15 @@ def _code_hash() -> str:
 
 def run_batch(spec_dicts: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Fly a batch of runs in order (the unit of work of both executors)."""
-    quiet_vehicle_logs()
     return [run_one(d) for d in spec_dicts]
 
 
 def quiet_vehicle_logs() -> None:
-    """Only errors of the onboard and the simulator reach stderr during a campaign: what the vehicle said
-    (a miss, a hold) is in each run's ``final_reason``, and warnings would tear the progress bar."""
+    """No log of the onboard or the simulator reaches stderr during a campaign: what the vehicle said (a
+    miss, a hold, a plan it could not make) is in each run's ``final_reason``, an exception in its ``error``
+    column, and log lines would tear the progress bar. (``--only`` re-flies one run with its logs.)"""
     for name in ("onboard", "hil_sim", "can"):
-        logging.getLogger(name).setLevel(logging.ERROR)
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 def _ignore_sigint() -> None:

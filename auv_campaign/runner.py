@@ -234,7 +234,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
         reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
     elif not refused and not result.started:
-        reason = f"not started: {status.reason}"
+        reason = f"never under way: {status.reason}"
     row = run_row(
         spec,
         truth.rows,

@@ -99,7 +99,7 @@ def test_clearance_is_negative_inside_an_obstacle_and_saturation_is_counted() ->
 
 
 def test_a_run_that_never_moved_reports_nothing_it_does_not_know() -> None:
-    row = _row_of([], planned=False, final_state="HOLD", final_reason="not started: cannot plan goal 0")
+    row = _row_of([], planned=False, final_state="HOLD", final_reason="never under way: cannot plan goal 0")
     assert row["planned"] is False and row["completed"] is False and row["success"] is False
     assert row["final_position_error_m"] is None and row["time_to_goal_s"] is None
-    assert row["final_reason"].startswith("not started")
+    assert row["final_reason"].startswith("never under way")
