@@ -70,6 +70,18 @@ def _fail(prog: str, message: str, code: int = EXIT_USAGE) -> int:
     return code
 
 
+def usable_out_dir(out: Path) -> str:
+    """ "" if ``out`` is (or can be made) a directory this process can write in, else why not (one line)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        return f"--out {out}: not a directory that can be written ({exc.strerror or exc})"
+    return ""
+
+
 def rerun_command(spec_path: str, out: str) -> Callable[[str], str]:
     """The one command that re-flies a run of this campaign, with its figure."""
 
@@ -92,6 +104,9 @@ def campaign_main(argv: list[str]) -> int:
     except (ConfigError, OSError) as exc:
         return _fail(prog, str(exc))
     out = Path(args.out)
+    problem = usable_out_dir(out)
+    if problem:
+        return _fail(prog, problem)
     if args.only:
         return _only(prog, spec, out, args.only, args.plot)
     if args.plot:

@@ -71,7 +71,14 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any
 
-from auv_campaign.cli import EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_ERROR, _executor_args, _fail
+from auv_campaign.cli import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_RUN_ERROR,
+    _executor_args,
+    _fail,
+    usable_out_dir,
+)
 from auv_campaign.results import run_cost
 from auv_campaign.spec import CampaignSpec, RunSpec
 from auv_common.config import ConfigError
@@ -1026,7 +1033,9 @@ def tune_main(argv: list[str]) -> int:
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    problem = usable_out_dir(out)
+    if problem:
+        return _fail(PROG, problem)
     storage = f"sqlite:///{(out / 'study.db').resolve()}"
     attrs = study_attrs(params, train.runs, args.sampler, args.seed)
     try:

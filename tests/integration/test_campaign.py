@@ -261,3 +261,19 @@ def test_join_a_running_ray_cluster_by_its_address(tmp_path: Path) -> None:
             os.killpg(head.pid, signal.SIGKILL)
             head.wait(10)
         shutil.rmtree(ray_tmp, ignore_errors=True)
+
+
+def test_an_out_that_is_a_file_is_one_line_before_any_run(tmp_path: Path) -> None:
+    spec = _write_spec(tmp_path, SMALL)
+    taken = tmp_path / "taken"
+    taken.write_text("not a directory")
+    tune = ["tune", str(spec), "--params", "control.improved.Kp5", "--trials", "2"]
+    for cmd in (["campaign", str(spec)], tune):
+        proc = subprocess.run(
+            [sys.executable, "-m", "hil_sim", *cmd, "--out", str(taken), "--no-progress"],
+            capture_output=True, text=True, timeout=60, check=False,
+        )  # fmt: skip
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and "--out" in lines[0] and "Traceback" not in proc.stderr
+    assert taken.read_text() == "not a directory"
