@@ -228,7 +228,9 @@ def sensor_frames(meas: Measurement) -> list[m.BusMessage]:
             )
         ]
     assert isinstance(meas, FixMeasurement)
-    return [m.PositionFix(_clip(meas.x_m, -8000.0, 8000.0), _clip(meas.y_m, -8000.0, 8000.0), t)]
+    # The stated accuracy in the frame's 0.25 m steps (a sensor states its accuracy conservatively: up).
+    std_m = _clip(math.ceil(meas.std_m / 0.25 - 1e-9) * 0.25, 0.0, 3.75)
+    return [m.PositionFix(_clip(meas.x_m, -8000.0, 8000.0), _clip(meas.y_m, -8000.0, 8000.0), t, std_m)]
 
 
 # --- the bench ---------------------------------------------------------------------------------------

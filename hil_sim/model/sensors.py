@@ -58,6 +58,7 @@ class PositionFix:
     t_sample_s: float
     x_m: float
     y_m: float
+    std_m: float = 0.0  # the sensor's stated 1-sigma accuracy (its profile's fix_std_m)
 
 
 Measurement = AhrsMeasurement | DepthMeasurement | DvlMeasurement | PositionFix
@@ -134,5 +135,5 @@ def sample(
     if mask[3]:
         e = rng.standard_normal(2)
         s = profile.fix_std_m
-        out.append(PositionFix(t_s, truth.x_m + s * float(e[0]), truth.y_m + s * float(e[1])))
+        out.append(PositionFix(t_s, truth.x_m + s * float(e[0]), truth.y_m + s * float(e[1]), s))
     return out

@@ -715,7 +715,7 @@ def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:
             min(att.t_sample_s, rates.t_sample_s),
         )
     return nav.NavInputs(
-        position=nav.PositionFix(fix.x_m, fix.y_m, fix.t_sample_s) if fix is not None else None,
+        position=nav.PositionFix(fix.x_m, fix.y_m, fix.t_sample_s, fix.std_m) if fix is not None else None,
         dvl=nav.DvlVelocity(dvl.u_mps, dvl.v_mps, dvl.w_mps, dvl.t_sample_s)
         if dvl is not None and dvl.valid
         else None,

@@ -131,10 +131,14 @@ class DvlVelocity:
 
 @dataclass(frozen=True)
 class PositionFix:
+    """A horizontal position fix; ``std_m``: the sensor's own 1-sigma accuracy in 0.25 m steps (0: better
+    than 0.25 m, or not stated: the onboard uses its configured ``[nav] fix_sigma_m``)."""
+
     DBC_NAME: ClassVar[str] = "POSITION_FIX"
     x_m: float
     y_m: float
     t_sample_s: float = 0.0
+    std_m: float = 0.0
 
 
 @dataclass(frozen=True)

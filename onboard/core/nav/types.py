@@ -16,11 +16,13 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class PositionFix:
-    """A horizontal position fix (USBL, GNSS at the surface, ...): NED x and y in m."""
+    """A horizontal position fix (USBL, GNSS at the surface, ...): NED x and y in m; ``std_m`` the sensor's
+    own 1-sigma accuracy (m; 0 = not stated)."""
 
     x_m: float
     y_m: float
     t_sample_s: float
+    std_m: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -107,6 +107,22 @@ def test_outlier_fix_is_rejected_counted_and_does_not_move_the_estimate() -> Non
     assert (with_fix.x_m, with_fix.y_m) == (without.x_m, without.y_m)
 
 
+def test_a_fix_is_weighted_with_the_accuracy_it_states() -> None:
+    # GIVEN a converged filter and a fix 4 m off: an outlier for a 0.3 m sensor, 2 sigma for a 2 m one
+    nav, state = run(20.0)
+    t = 20.0 + DT
+    off = (nav.x_m + 4.0, nav.y_m)
+    _, _, dbg_precise = step(inputs(t, fix=PositionFix(*off, t)), state, P, t)
+    coarse, _, dbg_coarse = step(inputs(t, fix=PositionFix(*off, t, 2.0)), state, P, t)
+    # THEN the stated accuracy decides: rejected as precise, accepted (and trusted little) as coarse
+    assert dbg_precise.fix_accepted is False
+    assert dbg_coarse.fix_accepted is True and dbg_coarse.fix_d2 is not None and dbg_coarse.fix_d2 < 13.8
+    assert 0.0 < coarse.x_m - nav.x_m < 1.0
+    # and a stated accuracy finer than the configured one does not make the filter over-confident
+    _, _, dbg_fine = step(inputs(t, fix=PositionFix(*off, t, 0.01)), state, P, t)
+    assert dbg_fine.fix_accepted is False
+
+
 def test_repeated_rejections_raise_a_condition() -> None:
     nav, state = run(5.0)
     for k in range(1, P.max_consecutive_rejections + 1):

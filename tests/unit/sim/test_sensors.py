@@ -68,3 +68,23 @@ def test_same_seed_same_measurements_other_seed_differs(params) -> None:
     _, c, _ = _collect(params, "sea", 5.0, seed=8)
     assert a == b and ta == tb
     assert a != c
+
+
+def test_a_position_fix_frame_states_the_sensor_accuracy_rounded_up() -> None:
+    # The fix frame carries its sensor's 1-sigma accuracy (0.25 m steps, rounded up: never over-confident),
+    # so the onboard filter follows the sensor actually in use.
+    from hil_sim.bench_program import sensor_frames
+    from hil_sim.model.params import load_params
+    from hil_sim.model.sensors import PositionFix as Fix
+    from onboard.protocol.codec import Codec
+
+    params = load_params()
+    codec = Codec()
+    for profile, stated in (("basin", 0.25), ("sea", 2.0)):
+        std = params.sensor_profiles[profile].fix_std_m
+        (frame,) = sensor_frames(Fix(1.0, 3.0, -4.0, std))
+        assert frame.std_m == stated
+        fid, data = codec.encode(frame, 0)
+        assert codec.decode(fid, data, 0.0).std_m == stated
+    (frame,) = sensor_frames(Fix(1.0, 3.0, -4.0, 9.0))
+    assert frame.std_m == 3.75  # the frame's largest step: "3.75 m or worse"
