@@ -32,7 +32,7 @@ _T, _X, _Y, _D, _YAW = (_COL[k] for k in ("t_s", "x_m", "y_m", "depth_m", "yaw_d
 _RUD, _SP, _SS, _PROP = (
     _COL[k] for k in ("rudder_cmd_rad", "stern_port_cmd_rad", "stern_starboard_cmd_rad", "propeller_cmd_rps")
 )
-_STATE = _COL["onboard_state"]
+_STATE, _PITCH = _COL["onboard_state"], _COL["pitch_deg"]
 COMPLETE_MARGIN_ROWS = 20  # truth rows (1 s at 20 Hz) after the first COMPLETE searched for the crossing
 SATURATION_TOLERANCE = 1e-4  # rad or rev/s below the limit that still counts as "at the limit"
 
@@ -64,6 +64,7 @@ def run_row(
         "final_course_error_deg": None,
         "final_heading_error_deg": None,
         "final_depth_error_m": None,
+        "max_pitch_deg": None,
         "max_cross_track_m": None,
         "rms_cross_track_m": None,
         "min_clearance_m": None,
@@ -101,6 +102,7 @@ def run_row(
             math.hypot(r[_X] - ox, r[_Y] - oy) - rad for r in truth for ox, oy, rad in spec.mission.obstacles
         )
     n = len(truth)
+    row["max_pitch_deg"] = max(abs(r[_PITCH]) for r in truth)
     fin_sq = sum(r[_RUD] ** 2 + r[_SP] ** 2 + r[_SS] ** 2 for r in truth)
     row["control_effort_rad"] = math.sqrt(fin_sq / (3 * n))
     rud_lim = limits.rudder_limit_rad - SATURATION_TOLERANCE

@@ -31,6 +31,7 @@ RESULT_COLUMNS = (
     "final_course_error_deg",  # course over ground against the goal's yaw
     "final_heading_error_deg",  # heading against the goal's yaw (crab in a current is expected)
     "final_depth_error_m",
+    "max_pitch_deg",  # the largest |pitch| of the truth over the run
     "max_cross_track_m",
     "rms_cross_track_m",
     "min_clearance_m",  # negative: inside an obstacle; None: no obstacle

@@ -58,6 +58,7 @@ from onboard.core.nav.types import NavState
 from onboard.protocol.conventions import stern_split, wrap_pi
 
 DerivativeSource = Literal["difference", "rates"]
+DepthMode = Literal["paper", "cascade"]
 ProfileName = Literal["paper", "improved"]
 
 
@@ -95,6 +96,15 @@ class PdGains:
     roll_kd: float = 0.0
     derivative: DerivativeSource = "difference"
     derivative_tau_s: float = 0.0
+    # The depth channel: "paper" = eq. 10 as written; "cascade" = depth -> pitch command (limited to
+    # +-pitch_limit_deg, with an integral that stops while the command is limited: anti-windup) -> stern
+    # through Kp8 / KD8 on the pitch-command error and the pitch rate. Kp7 / KD7 are unused in "cascade".
+    depth_mode: DepthMode = "paper"
+    pitch_limit_deg: float = 20.0
+    Kz_pitch: float = 0.0  # rad of pitch per m of depth error (+ error: nose down)
+    KDz_pitch: float = 0.0  # rad per m/s of depth-rate error
+    Kiz_pitch: float = 0.0  # rad per m*s of integrated depth error (trims the buoyancy out)
+    depth_int_max_deg: float = 6.0  # the most pitch the integral may hold, deg
 
     def __post_init__(self) -> None:
         m, r = self.speed_map_mps, self.speed_map_rps
@@ -162,6 +172,13 @@ class ImprovedGains(PdGains):
     roll_kd: float = 0.1
     derivative: DerivativeSource = "rates"
     derivative_tau_s: float = 0.0
+    # Depth through a limited pitch command (campaign hil_sim/campaigns/depth.yaml, 1 -> 5 m and 1 -> 10 m:
+    # max pitch 15-17 deg within the 20 deg limit, depth error at the goal <= 0.05 m; eq. 10 pitched 29-35 deg
+    # with the stern saturated 16-23 % of the run). Swept over Kz 0.2-0.5 with KDz = Kz, Kiz = Kz / 10.
+    depth_mode: DepthMode = "cascade"
+    Kz_pitch: float = 0.5
+    KDz_pitch: float = 0.5
+    Kiz_pitch: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -187,6 +204,7 @@ class ControllerState:
 
     errors: tuple[float, float, float, float, float] | None = None  # e_x, e_y, e_z, e_psi, e_theta
     derivatives: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    depth_int_rad: float = 0.0  # the depth cascade's integral, as pitch (rad)
     command: ActuatorCommand = field(default_factory=lambda: ActuatorCommand(0.0, 0.0, 0.0, 0.0))
 
 
@@ -214,6 +232,22 @@ def _depth_rate_mps(nav: NavState) -> float:
     cf, sf = math.cos(nav.roll_rad), math.sin(nav.roll_rad)
     ct, st = math.cos(nav.pitch_rad), math.sin(nav.pitch_rad)
     return -st * nav.u_mps + ct * sf * nav.v_mps + ct * cf * nav.w_mps
+
+
+def _depth_cascade(
+    g: PdGains, reference: GuidanceReference, nav: NavState, ez: float, dz: float, integ: float, dt_s: float
+) -> tuple[float, float, float, float, float]:
+    """Depth -> pitch command -> stern: (P7, D7, P8, D8, new integral). P7 / D7 report the pitch command's
+    depth terms (rad of pitch); P8 / D8 are the stern terms (rad of stern)."""
+    lim = math.radians(g.pitch_limit_deg)
+    p7, d7 = -g.Kz_pitch * ez, -g.KDz_pitch * dz
+    unlimited = reference.pitch_rad + p7 + d7 - integ
+    theta_cmd = min(max(unlimited, -lim), lim)
+    if math.isfinite(ez) and dt_s > 0.0 and (theta_cmd == unlimited or (unlimited > lim) == (ez > 0.0)):
+        # anti-windup: integrate while the command is within its limit, or when the error unwinds it
+        imax = math.radians(g.depth_int_max_deg)
+        integ = min(max(integ + g.Kiz_pitch * ez * dt_s, -imax), imax)
+    return p7, d7, g.Kp8 * (theta_cmd - nav.pitch_rad), -g.KD8 * nav.q_radps, integ
 
 
 def step(
@@ -260,11 +294,19 @@ def step(
     p1, d1, p2, d2 = g.Kp1 * ex, g.KD1 * dx, g.Kp2 * ey, g.KD2 * dy
     p3, d3, p4, d4 = g.Kp3 * ez, g.KD3 * dz, g.Kp4 * ex, g.KD4 * dx
     p5, d5, p6, d6 = g.Kp5 * ey, g.KD5 * dy, g.Kp6 * epsi, g.KD6 * dpsi
-    p7, d7, p8, d8 = g.Kp7 * ez, g.KD7 * dz, g.Kp8 * eth, g.KD8 * dth
+    depth_int = state.depth_int_rad
+    if g.depth_mode == "cascade":
+        dt_int = dt_s if dt_ok else 0.0
+        p7, d7, p8, d8, depth_int = _depth_cascade(g, reference, nav, ez, dz, depth_int, dt_int)
+    else:
+        p7, d7, p8, d8 = g.Kp7 * ez, g.KD7 * dz, g.Kp8 * eth, g.KD8 * dth
     # Summed left to right from 0.0, as sum() did, so the result is the same to the bit (-0.0 included).
     rps = 0.0 + p1 + d1 + p2 + d2 + p3 + d3  # eq. 8
     rudder = 0.0 + p4 + d4 + p5 + d5 + p6 + d6  # eq. 9
-    stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
+    if g.depth_mode == "cascade":  # P7 / D7 are pitch (rad), already inside P8 through the pitch command
+        stern = 0.0 + p8 + d8
+    else:
+        stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
 
     rps_ff = rudder_ff = 0.0
     if g.feedforward:
@@ -280,7 +322,9 @@ def step(
     if int(command.flags) & _NAN_INPUT:
         new_state = ControllerState(errors=None, command=command)
     else:
-        new_state = ControllerState(errors=e, derivatives=derivatives, command=command)
+        new_state = ControllerState(
+            errors=e, derivatives=derivatives, depth_int_rad=depth_int, command=command
+        )
     terms = {
         "P1": p1, "D1": d1, "P2": p2, "D2": d2, "P3": p3, "D3": d3, "P4": p4, "D4": d4,
         "P5": p5, "D5": d5, "P6": p6, "D6": d6, "P7": p7, "D7": d7, "P8": p8, "D8": d8,

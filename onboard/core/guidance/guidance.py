@@ -252,15 +252,18 @@ def step(
         dist_end = math.nan
         arrived = state.arrived
 
-    slope = depth_rate_per_m(path, ref.s_m)
+    # Depth and pitch where the vehicle is (its projection) when the lateral errors are taken there too: a
+    # reference point metres ahead of a lagging vehicle asks for the next depth too early.
+    vert = proj if lateral_at_proj else ref
+    slope = depth_rate_per_m(path, vert.s_m)
     reference = GuidanceReference(
         mode=mode,
         s_ref_m=s_ref,
         x_m=ref.x_m,
         y_m=ref.y_m,
-        depth_m=ref.depth_m,
+        depth_m=vert.depth_m,
         yaw_rad=yaw_d,
-        pitch_rad=ref.pitch_rad,
+        pitch_rad=vert.pitch_rad,
         x_rate_mps=ref_speed * math.cos(ref.yaw_rad),
         y_rate_mps=ref_speed * math.sin(ref.yaw_rad),
         depth_rate_mps=ref_speed * slope,
@@ -273,9 +276,9 @@ def step(
         distance_to_end_m=dist_end,
         e_along_m=e_along,
         e_cross_m=e_cross,
-        e_depth_m=ref.depth_m - nav.depth_m,
+        e_depth_m=vert.depth_m - nav.depth_m,
         e_yaw_rad=yaw_error(yaw_d, yaw_a) if nav_ok else math.nan,
-        e_pitch_rad=ref.pitch_rad - nav.pitch_rad,
+        e_pitch_rad=vert.pitch_rad - nav.pitch_rad,
         arrived=arrived,
         nav_ok=nav_ok,
     )

@@ -24,6 +24,9 @@ from tests.unit.control.toy_plant import ToyState, toy_nav, toy_step
 
 PAPER = ControlParams(profile="paper")
 IMPROVED = ControlParams(profile="improved")
+# The improved profile with eq. 10 as written for depth (its default is the depth -> pitch cascade, which
+# takes no pitch error: the tests of eq. 10's terms use this one).
+IMPROVED_EQ10 = ControlParams(profile="improved", improved=ImprovedGains(depth_mode="paper"))
 DT = 0.05
 
 
@@ -43,7 +46,7 @@ def ref(**errors: float) -> GuidanceReference:
 NAV = nav_state_at()
 
 
-@pytest.mark.parametrize("params", [PAPER, IMPROVED], ids=["paper", "improved"])
+@pytest.mark.parametrize("params", [PAPER, IMPROVED_EQ10], ids=["paper", "improved"])
 @pytest.mark.parametrize(
     ("error", "value", "channel", "sign"),
     [
@@ -67,7 +70,7 @@ def test_each_channel_sign_stabilises(
     assert getattr(cmd, channel) != 0.0
 
 
-@pytest.mark.parametrize("params", [PAPER, IMPROVED], ids=["paper", "improved"])
+@pytest.mark.parametrize("params", [PAPER, IMPROVED_EQ10], ids=["paper", "improved"])
 def test_p_and_d_terms_match_eqs_8_to_10(params: ControlParams) -> None:
     # GIVEN two consecutive steps with known error changes and difference derivatives
     params = dataclasses.replace(
@@ -142,7 +145,7 @@ def test_dt_zero_is_safe_and_holds_the_command(params: ControlParams) -> None:
     assert s2.errors is not None
 
 
-@pytest.mark.parametrize("params", [PAPER, IMPROVED], ids=["paper", "improved"])
+@pytest.mark.parametrize("params", [PAPER, IMPROVED_EQ10], ids=["paper", "improved"])
 @pytest.mark.parametrize("field", ["e_along_m", "e_cross_m", "e_depth_m", "e_yaw_rad", "e_pitch_rad"])
 def test_nan_in_gives_neutral_out(params: ControlParams, field: str) -> None:
     # GIVEN a running controller with a nonzero command
@@ -259,3 +262,52 @@ def test_closed_loop_on_an_arc_with_feedforward() -> None:
         worst = max(worst, abs(r.cross_track_m))
     # THEN the cross-track error stays small through the turn
     assert worst < 0.3
+
+
+CASCADE = ControlParams(
+    profile="improved",
+    improved=ImprovedGains(depth_mode="cascade", Kz_pitch=0.2, KDz_pitch=0.2, Kiz_pitch=0.02, Kp8=-1.5),
+)
+
+
+def _stern(cmd) -> float:  # type: ignore[no-untyped-def]
+    return (cmd.stern_port_rad + cmd.stern_starboard_rad) / 2.0
+
+
+def test_depth_cascade_limits_the_pitch_it_asks_for() -> None:
+    lim = math.radians(CASCADE.improved.pitch_limit_deg)
+    # GIVEN a vehicle 20 m too shallow: the pitch command is limited to -20 deg (nose down)
+    at_limit, _, dbg = step(nav_state_at(pitch_rad=-lim), ref(e_depth_m=20.0), ControllerState(), CASCADE, DT)
+    # THEN once the vehicle pitches at the limit the stern asks for no more nose-down
+    assert _stern(at_limit) == pytest.approx(0.0, abs=1e-9)
+    assert dbg.terms["P7"] == pytest.approx(-0.2 * 20.0)  # the unlimited pitch demand is reported
+    # and short of the limit it pitches down (positive stern), beyond it back up (negative stern)
+    short, _, _ = step(nav_state_at(pitch_rad=-0.1), ref(e_depth_m=20.0), ControllerState(), CASCADE, DT)
+    deep = nav_state_at(pitch_rad=-lim - 0.1)
+    beyond, _, _ = step(deep, ref(e_depth_m=20.0), ControllerState(), CASCADE, DT)
+    assert _stern(short) > 0.0 > _stern(beyond)
+
+
+def test_depth_cascade_integral_does_not_wind_up_while_limited() -> None:
+    state = ControllerState()
+    for _ in range(200):  # 10 s with the pitch command limited (20 m too shallow)
+        _, state, _ = step(NAV, ref(e_depth_m=20.0), state, CASCADE, DT)
+    assert state.depth_int_rad == 0.0
+    # a small error inside the limit is integrated, up to its clamp
+    for _ in range(2000):
+        _, state, _ = step(NAV, ref(e_depth_m=0.5), state, CASCADE, DT)
+    assert state.depth_int_rad == pytest.approx(math.radians(CASCADE.improved.depth_int_max_deg))
+    # and an error of the other sign unwinds it
+    _, after, _ = step(NAV, ref(e_depth_m=-0.5), state, CASCADE, DT)
+    assert after.depth_int_rad < state.depth_int_rad
+
+
+def test_depth_mode_paper_is_eq_10() -> None:
+    _, _, dbg = step(NAV, ref(e_depth_m=0.1, e_pitch_rad=0.05), ControllerState(), IMPROVED_EQ10, DT)
+    g = IMPROVED_EQ10.improved
+    assert dbg.terms["P7"] == pytest.approx(g.Kp7 * 0.1) and dbg.terms["P8"] == pytest.approx(g.Kp8 * 0.05)
+
+
+def test_depth_cascade_nan_depth_error_gives_neutral_out() -> None:
+    cmd, state, _ = step(NAV, ref(e_depth_m=math.nan), ControllerState(), IMPROVED, DT)
+    assert cmd.flags & ActuatorFlag.NAN_INPUT and _stern(cmd) == 0.0 and state.depth_int_rad == 0.0
