@@ -59,6 +59,7 @@ def default_workers() -> int:
 def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
     """Fly one run given as :meth:`RunSpec.to_dict`; its JSON record. An exception (a bug, not a miss) is
     caught and reported in the row's ``error`` column, so one bad run does not end the campaign."""
+    from auv_campaign.metrics import base_row
     from auv_campaign.runner import fly
 
     quiet_vehicle_logs()
@@ -68,15 +69,8 @@ def run_one(spec_dict: dict[str, Any]) -> dict[str, Any]:
         record["fingerprint"] = fingerprint(spec)
         return record
     except Exception as exc:
-        row: dict[str, Any] = {c: None for c in COLUMNS}
-        row.update(spec.identity())
-        row.update(
-            planned=False,
-            completed=False,
-            success=False,
-            false_complete=False,
-            error=f"{type(exc).__name__}: {exc}",
-        )
+        row = base_row(spec)
+        row["error"] = f"{type(exc).__name__}: {exc}"
         tb = traceback.format_exc(limit=6)
         return {"run_id": spec.run_id, "spec": spec_dict, "row": row, "track": {}, "path": [],
                 "traceback": tb}  # fmt: skip
@@ -86,9 +80,17 @@ def fingerprint(spec: RunSpec) -> str:
     """What a run's result depends on beyond its spec: the effective onboard configuration (the packaged
     ``onboard.toml`` with the run's overrides), the vehicle model of its variant, and the code (every source
     and data file of onboard, hil_sim, auv_campaign and auv_common). A short hash."""
-    from auv_campaign.runner import onboard_config, vehicle_of
+    return _fingerprint(tuple(spec.onboard_sets()), spec.vehicle_scale, spec.vehicle_set)
 
-    text = "\n".join((_code_hash(), repr(onboard_config(spec)), repr(vehicle_of(spec).config)))
+
+@functools.lru_cache(maxsize=256)
+def _fingerprint(
+    onboard_sets: tuple[str, ...], scale: tuple[tuple[str, float], ...], sets: tuple[tuple[str, Any], ...]
+) -> str:
+    from auv_campaign.runner import effective_onboard_config, vehicle_variant
+
+    onboard, vehicle = effective_onboard_config(onboard_sets), vehicle_variant(scale, sets)
+    text = "\n".join((_code_hash(), repr(onboard), repr(vehicle.config)))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from auv_campaign.results import COLUMNS
 from auv_campaign.spec import RunSpec
 from hil_sim.bench_program import TRUTH_COLUMNS
 from hil_sim.metrics import compute_metrics
@@ -41,6 +42,15 @@ def _finite(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def base_row(spec: RunSpec) -> dict[str, Any]:
+    """A row that knows only the run: its identity, nothing planned, completed or succeeded, every figure
+    None (a run that raised is this row with its ``error``)."""
+    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row.update(spec.identity())
+    row.update(planned=False, completed=False, success=False, false_complete=False, error="")
+    return row
+
+
 def run_row(
     spec: RunSpec,
     truth: list[list[Any]],
@@ -54,29 +64,8 @@ def run_row(
     limits: ActuatorLimits,
 ) -> dict[str, Any]:
     """One row of ``runs.csv`` (``results.COLUMNS`` without the timing of the run itself)."""
-    row: dict[str, Any] = {
-        **spec.identity(),
-        "planned": planned,
-        "completed": False,
-        "success": False,
-        "false_complete": False,
-        "final_position_error_m": None,
-        "final_course_error_deg": None,
-        "final_heading_error_deg": None,
-        "final_depth_error_m": None,
-        "max_pitch_deg": None,
-        "max_cross_track_m": None,
-        "rms_cross_track_m": None,
-        "min_clearance_m": None,
-        "time_to_goal_s": None,
-        "control_effort_rad": None,
-        "fin_saturation_fraction": None,
-        "propeller_saturation_fraction": None,
-        "final_state": final_state,
-        "final_reason": final_reason,
-        "time_limit_s": time_limit_s,
-        "error": "",
-    }
+    row = base_row(spec)
+    row.update(planned=planned, final_state=final_state, final_reason=final_reason, time_limit_s=time_limit_s)
     if not truth or not samples:
         return row
     gx, gy, gdepth, gyaw = spec.mission.goals[-1]

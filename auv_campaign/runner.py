@@ -104,18 +104,20 @@ class _Rows:
 def onboard_config(spec: RunSpec) -> OnboardConfig:
     """The onboard configuration of a run: the packaged file, lock-step, no telemetry file, and the run's
     overrides (``auv-onboard run --set`` syntax)."""
-    return _onboard_config(tuple(spec.onboard_sets()))
+    return effective_onboard_config(tuple(spec.onboard_sets()))
 
 
 # What runs of one worker share, built once per process (all frozen, or stateless like the codec: the
 # alive counters live in each port's sender and receiver, not in the codec).
 @functools.lru_cache(maxsize=64)
-def _onboard_config(sets: tuple[str, ...]) -> OnboardConfig:
+def effective_onboard_config(sets: tuple[str, ...]) -> OnboardConfig:
+    """The packaged onboard configuration with the campaign's lock-step settings and ``sets``."""
     return build_config(None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', *sets])
 
 
 @functools.lru_cache(maxsize=64)
-def _vehicle(scale: tuple[tuple[str, float], ...], sets: tuple[tuple[str, Any], ...]) -> VehicleParams:
+def vehicle_variant(scale: tuple[tuple[str, float], ...], sets: tuple[tuple[str, Any], ...]) -> VehicleParams:
+    """The packaged vehicle model with a variant's scales and sets."""
     return vehicle_params(dict(scale), dict(sets))
 
 
@@ -172,7 +174,7 @@ def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float) -> float:
 
 def vehicle_of(spec: RunSpec) -> VehicleParams:
     """The simulated vehicle of a run: the packaged model with the run's variant (built once per process)."""
-    return _vehicle(spec.vehicle_scale, spec.vehicle_set)
+    return vehicle_variant(spec.vehicle_scale, spec.vehicle_set)
 
 
 def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | None = None) -> RunOutput:

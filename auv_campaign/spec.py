@@ -171,6 +171,12 @@ def _thaw(value: Any) -> Any:
     return value
 
 
+def set_argument(key: str, value: Any) -> str:
+    """``KEY=VALUE`` as ``auv-onboard run --set`` takes it: the value in JSON (which is TOML for numbers,
+    booleans, strings and lists; a frozen spec value is thawed first), e.g. ``guidance.mode="los"``."""
+    return f"{key}={json.dumps(_thaw(value))}"
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """One run: a mission under one value of every sweep axis.
@@ -203,7 +209,7 @@ class RunSpec:
     def onboard_sets(self) -> list[str]:
         """The overrides as ``auv-onboard run --set`` arguments: ``KEY=VALUE`` with the value in JSON (which
         is TOML for numbers, booleans, strings and lists), e.g. ``guidance.mode="los"``."""
-        return [f"{key}={json.dumps(_thaw(value))}" for key, value in self.onboard]
+        return [set_argument(key, value) for key, value in self.onboard]
 
     def axis_labels(self) -> dict[str, str]:
         """This run's label on every axis (the labels of :attr:`CampaignSpec.axes`)."""
@@ -716,7 +722,7 @@ def _check_vehicle(key: str, scale: dict[str, float], sets: dict[str, Any]) -> N
 
 
 def _describe_pairs(pairs: Iterable[tuple[str, Any]]) -> str:
-    return ", ".join(f"{k}={json.dumps(_thaw(v))}" for k, v in pairs)
+    return ", ".join(set_argument(k, v) for k, v in pairs)
 
 
 def parse_spec(data: Any, where: str, *, seed_offset: int = 0, random_seed_offset: int = 0) -> CampaignSpec:
@@ -829,7 +835,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     # The onboard and the simulator judge their own overrides, once per entry.
     for i, (_, pairs) in enumerate(onboards):
         if pairs:
-            _check_onboard(f"sweep.onboard[{i}]", [f"{k}={json.dumps(_thaw(v))}" for k, v in pairs])
+            _check_onboard(f"sweep.onboard[{i}]", [set_argument(k, v) for k, v in pairs])
     for i, (_, scale, sets) in enumerate(vehicles):
         if scale or sets:
             _check_vehicle(f"sweep.vehicle[{i}]", dict(scale), dict(sets))

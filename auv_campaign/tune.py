@@ -80,7 +80,7 @@ from auv_campaign.cli import (
     usable_out_dir,
 )
 from auv_campaign.results import run_cost
-from auv_campaign.spec import CampaignSpec, RunSpec
+from auv_campaign.spec import CampaignSpec, RunSpec, set_argument
 from auv_common.config import ConfigError
 
 if TYPE_CHECKING:
@@ -220,11 +220,6 @@ def config_value(config: Any, key: str) -> float:
         kind = "an integer" if annotation is int else f"not a real number (it is {value!r})"
         raise ParamError(f"{key}: {kind}: tune tunes real-valued settings only")
     return value
-
-
-def set_argument(key: str, value: Any) -> str:
-    """``KEY=VALUE`` as ``auv-onboard run --set`` takes it (the value in JSON, which is TOML for numbers)."""
-    return f"{key}={json.dumps(value)}"
 
 
 def resolve_params(
