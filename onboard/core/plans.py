@@ -8,7 +8,7 @@ thread. Both are pure: the planner, the goal, the obstacles and the configuratio
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from onboard.core.mission.model import Goal
@@ -26,6 +26,8 @@ class PlanRequest:
 
     ``kind``: ``goal`` (from the vehicle's pose to goal ``goal_index``) or ``loiter`` (onto a circle of
     ``loiter_radius_m`` around the goal, then round it). ``t_s`` is when it was asked for (the core's time).
+    ``current_mps`` is the estimated water current's speed and ``speed_mps`` the path speed over ground, for
+    the planner's ``current_aware`` turning radius (:func:`current_radius_m`).
     """
 
     request_id: int
@@ -39,20 +41,45 @@ class PlanRequest:
     loiter_radius_m: float
     t_s: float
     deadline_s: float
+    current_mps: float = 0.0
+    speed_mps: float = 1.0
+
+
+#: The widest a current makes the turns: the current counted is at most this fraction of the path speed.
+MAX_CURRENT_FRACTION = 0.6
+
+
+def current_radius_m(turning_radius_m: float, speed_mps: float, current_mps: float) -> float:
+    """The turning radius (m) a vehicle can fly over ground at ``speed_mps`` in a current ``current_mps``
+    (both m/s): its turn rate is speed through the water / radius, and a following current leaves it
+    U - c of water speed, so r * U / (U - c), with c at most :data:`MAX_CURRENT_FRACTION` of U."""
+    c = min(max(current_mps, 0.0), MAX_CURRENT_FRACTION * speed_mps)
+    return turning_radius_m * speed_mps / (speed_mps - c)
 
 
 def compute_plan(request: PlanRequest) -> Path:
     """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it."""
     g = request.goal
     if request.kind == "goal":
-        return plan(
-            request.start,
-            (g.x_m, g.y_m, g.yaw_rad),
-            request.planner,
-            request.obstacles,
-            start_depth_m=request.start_depth_m,
-            goal_depth_m=g.depth_m,
-        )
+        nominal = request.planner
+
+        def to_goal(config: Any) -> Path:
+            return plan(
+                request.start,
+                (g.x_m, g.y_m, g.yaw_rad),
+                config,
+                request.obstacles,
+                start_depth_m=request.start_depth_m,
+                goal_depth_m=g.depth_m,
+            )
+
+        if nominal.current_aware and request.current_mps > 0.0:
+            radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
+            try:
+                return to_goal(replace(nominal, turning_radius_m=radius))
+            except PlannerError:
+                pass  # the wider turns find no way: the nominal radius
+        return to_goal(nominal)
     # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
     r = request.loiter_radius_m
     for i, (ox, oy, orad) in enumerate(inflate(request.obstacles, request.planner)):

@@ -105,6 +105,11 @@ class PdGains:
     KDz_pitch: float = 0.0  # rad per m/s of depth-rate error
     Kiz_pitch: float = 0.0  # rad per m*s of integrated depth error (trims the buoyancy out)
     depth_int_max_deg: float = 6.0  # the most pitch the integral may hold, deg
+    # Fin-gain schedule: a fin's force grows with the square of the speed through the water, so the fin
+    # feedback (eqs. 9 and 10, not the feed-forward) is scaled by (schedule_speed_mps / u_w)^2, u_w the
+    # estimated speed through the water, at most schedule_max_scale (and at least 1 / it). 0 = off.
+    schedule_speed_mps: float = 0.0
+    schedule_max_scale: float = 2.5
 
     def __post_init__(self) -> None:
         m, r = self.speed_map_mps, self.speed_map_rps
@@ -227,11 +232,13 @@ class ControlDebug:
 _NAN_INPUT = ActuatorFlag.NAN_INPUT.value  # a plain int: IntFlag & IntFlag costs ~1 us
 
 
-def _depth_rate_mps(nav: NavState) -> float:
-    """Measured depth rate dz/dt (m/s, + = diving) from the body velocity and attitude (NED z row of R)."""
-    cf, sf = math.cos(nav.roll_rad), math.sin(nav.roll_rad)
-    ct, st = math.cos(nav.pitch_rad), math.sin(nav.pitch_rad)
-    return -st * nav.u_mps + ct * sf * nav.v_mps + ct * cf * nav.w_mps
+def _fin_scale(g: PdGains, water_speed_mps: float) -> float:
+    """The fin-feedback scale (schedule_speed / u_w)^2 within [1 / max, max] (1 for a non-finite u_w)."""
+    if not math.isfinite(water_speed_mps):
+        return 1.0
+    hi = g.schedule_max_scale
+    scale = (g.schedule_speed_mps / max(water_speed_mps, 1e-3)) ** 2
+    return min(max(scale, 1.0 / hi), hi)
 
 
 def _depth_cascade(
@@ -285,7 +292,7 @@ def step(
             diff = wrap_pi(e[i] - prev[i]) if i == 3 else e[i] - prev[i]
             d[i] += alpha * (diff / dt_s - d[i])
     if rates:
-        d[2] = reference.depth_rate_mps - _depth_rate_mps(nav)
+        d[2] = reference.depth_rate_mps - nav.velocity_ned_mps[2]
         d[3] = reference.yaw_rate_radps - nav.r_radps
         d[4] = reference.pitch_rate_radps - nav.q_radps
 
@@ -303,15 +310,22 @@ def step(
     # Summed left to right from 0.0, as sum() did, so the result is the same to the bit (-0.0 included).
     rps = 0.0 + p1 + d1 + p2 + d2 + p3 + d3  # eq. 8
     rudder = 0.0 + p4 + d4 + p5 + d5 + p6 + d6  # eq. 9
+    if g.schedule_speed_mps > 0.0:
+        rudder *= _fin_scale(g, nav.water_speed_mps)
     if g.depth_mode == "cascade":  # P7 / D7 are pitch (rad), already inside P8 through the pitch command
         stern = 0.0 + p8 + d8
     else:
         stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
+    if g.schedule_speed_mps > 0.0:
+        stern *= _fin_scale(g, nav.water_speed_mps)
 
     rps_ff = rudder_ff = 0.0
     if g.feedforward:
-        rps_ff = g.speed_to_rps(reference.speed_mps)
-        speed = reference.speed_mps
+        # Through the water: the speed it takes (over ground in a current, the guidance's water speed) and
+        # the curvature relative to the water the yaw rate is (a turn flown slower through the water needs
+        # more rudder for the same rate).
+        speed = reference.water_speed_mps
+        rps_ff = g.speed_to_rps(speed)
         kappa = reference.yaw_rate_radps / speed if speed > 1e-6 else reference.curvature_1pm
         rudder_ff = -g.rudder_per_curvature_radm * kappa  # right turn (kappa > 0) = negative rudder
     roll_diff = g.roll_kp * nav.roll_rad + g.roll_kd * nav.p_radps if (g.roll_kp or g.roll_kd) else 0.0

@@ -14,6 +14,14 @@ Modes (``[guidance] mode``):
   dI/dt = U * Delta * e_cross / ((e_cross + sigma*I)^2 + Delta^2), so a constant current is rejected with no
   steady cross-track offset. |sigma*I| is clamped to Delta*tan(``ilos_max_correction_deg``).
 
+Steering (``steer``): ``heading`` points the bow along the desired direction (the paper); ``course`` makes
+that direction the course over ground chi_d and heads where the water velocity must point for it, from the
+estimated current c (:mod:`onboard.core.nav.current`): psi_d = atan2(U sin chi_d - c_e, U cos chi_d - c_n)
+with U = ``speed_mps`` (the crab angle chi_d - psi_d, clamped to +-``crab_max_deg``). The speed through the
+water this needs at the reference speed, |U_ref (cos chi_d, sin chi_d) - c|, goes to the controller
+(``water_speed_mps``: its propeller and curvature feed-forwards). Arrival then judges the course over ground
+(the DVL's, above ``crab_min_speed_mps``), not the heading: crabbing is expected.
+
 In every mode the yaw-rate feed-forward is r_d = U * curvature (rad/s, + = right turn) at the reference point.
 
 Nothing is flown past the end of a path: after the last goal the autopilot runs the mission's end action
@@ -66,6 +74,9 @@ class GuidanceParams:
     - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
       many seconds (at the commanded speed ``speed_mps``) ahead of the projection, so the rudder moves
       before the arc begins (the fins and the yaw dynamics lag by a fraction of a second).
+    - ``steer``: ``"heading"`` (the paper) or ``"course"`` (course over ground, module docstring);
+      ``crab_max_deg`` (deg): the clamp on the crab angle; ``crab_min_speed_mps`` (m/s): below this speed
+      over ground arrival judges the heading (the DVL's course is noise at rest).
     - ``cross_error_limit_m``: where the heading reference already carries the cross-track error (LOS,
       ILOS, and ``track`` with ``lateral = "path"``), the cross-track error handed to the controller's
       eq. 9 term is limited to +-this (m; 0 = no limit). Far from the path the LOS heading must win: an
@@ -85,8 +96,12 @@ class GuidanceParams:
     lateral: Literal["reference", "path"] = "reference"
     curvature_preview_s: float = 0.0
     cross_error_limit_m: float = 0.0
+    steer: Literal["heading", "course"] = "heading"
+    crab_min_speed_mps: float = 0.3
+    crab_max_deg: float = 40.0
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
+    crab_max_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         require(self.speed_mps > 0.0, f"speed_mps must be > 0, got {self.speed_mps}")
@@ -99,6 +114,9 @@ class GuidanceParams:
         require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
         require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
         require(self.cross_error_limit_m >= 0.0, "cross_error_limit_m must be >= 0")
+        require(self.crab_min_speed_mps > 0.0, "crab_min_speed_mps must be > 0")
+        require(0.0 <= self.crab_max_deg < 90.0, "crab_max_deg must be in [0, 90)")
+        object.__setattr__(self, "crab_max_rad", math.radians(self.crab_max_deg))
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
 
@@ -124,7 +142,8 @@ class GuidanceState:
 class GuidanceReference:
     """The desired state and the errors for the controller. NED, m, rad, s.
 
-    Desired: ``x_m, y_m, depth_m, yaw_rad, pitch_rad`` and their rates; ``speed_mps`` = U,
+    Desired: ``x_m, y_m, depth_m, yaw_rad, pitch_rad`` and their rates; ``speed_mps`` = U (over ground),
+    ``water_speed_mps`` the speed through the water that needs (= U unless ``steer = "course"``),
     ``yaw_rate_radps`` = U * ``curvature_1pm`` (the yaw-rate feed-forward).
     Vehicle on the path: ``along_track_m`` (its projection's arc length), ``cross_track_m`` (+ = vehicle to
     starboard of the path), ``distance_to_end_m``.
@@ -147,6 +166,7 @@ class GuidanceReference:
     yaw_rate_radps: float
     pitch_rate_radps: float
     speed_mps: float
+    water_speed_mps: float
     curvature_1pm: float
     along_track_m: float
     cross_track_m: float
@@ -162,10 +182,11 @@ class GuidanceReference:
 
 @dataclass(frozen=True)
 class GuidanceDebug:
-    """Per-step numbers: the LOS heading correction (rad) and the ILOS integral (m)."""
+    """Per-step numbers: the LOS heading correction (rad), the ILOS integral (m) and the crab angle (rad)."""
 
     los_correction_rad: float = 0.0
     ilos_int_m: float = 0.0
+    crab_rad: float = 0.0
 
 
 def step(
@@ -237,6 +258,21 @@ def step(
             los_corr = math.atan((e_cross + sigma * ilos_int) / delta)
             yaw_d = wrap_pi(ref.yaw_rad + los_corr)
 
+    crab = 0.0
+    water_speed = ref_speed
+    course_a = yaw_a
+    if params.steer == "course" and nav_ok:
+        cn, ce = nav.current_north_mps, nav.current_east_mps
+        cos_d, sin_d = math.cos(yaw_d), math.sin(yaw_d)
+        limit = params.crab_max_rad
+        crab = wrap_pi(yaw_d - math.atan2(speed * sin_d - ce, speed * cos_d - cn))
+        crab = min(max(crab, -limit), limit)
+        yaw_d = wrap_pi(yaw_d - crab)
+        water_speed = math.hypot(ref_speed * cos_d - cn, ref_speed * sin_d - ce)
+        vn, ve, _ = nav.velocity_ned_mps
+        if math.hypot(vn, ve) >= params.crab_min_speed_mps:
+            course_a = math.atan2(ve, vn)
+
     limit = params.cross_error_limit_m
     if limit > 0.0 and (mode != "track" or params.lateral == "path") and math.isfinite(e_cross):
         e_cross = min(max(e_cross, -limit), limit)
@@ -245,7 +281,7 @@ def step(
     if nav_ok:
         dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
         at_end = dist_end <= params.arrival_position_tol_m and (
-            abs(yaw_error(end.yaw_rad, yaw_a)) <= params.arrival_yaw_tol_rad
+            abs(yaw_error(end.yaw_rad, course_a)) <= params.arrival_yaw_tol_rad
         )
         arrived = state.arrived or at_end or s_proj >= length
     else:
@@ -270,6 +306,7 @@ def step(
         yaw_rate_radps=ref_speed * curvature,
         pitch_rate_radps=0.0,
         speed_mps=ref_speed,
+        water_speed_mps=water_speed,
         curvature_1pm=curvature,
         along_track_m=s_proj,
         cross_track_m=cross_track,
@@ -290,4 +327,5 @@ def step(
         arrived=arrived,
         ref_speed_mps=ref_speed,
     )
-    return reference, new_state, GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int)
+    debug = GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int, crab_rad=crab)
+    return reference, new_state, debug

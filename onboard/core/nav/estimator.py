@@ -13,6 +13,9 @@ freedom) is at most ``gate_chi2``; otherwise it is rejected and counted, so an o
 estimate. The first valid fix initialises the position (before it: ``POSITION_MISSING``).
 Fix latency is ignored (a fix is applied at the step that sees it); the loop runs at 20 Hz and fixes are slow.
 
+The water current (and the speed through the water) is estimated apart, from the DVL's velocity over ground
+and the heading (:mod:`onboard.core.nav.current`), on every new DVL sample.
+
 Attitude, rates, depth and body velocity are passed through from the latest valid sample, with their ages.
 A non-finite sample is rejected, counted and flagged ``NAN_INPUT``; the previous valid sample stays in use.
 
@@ -28,6 +31,7 @@ from math import isfinite
 from typing import NamedTuple
 
 from auv_common.config import require
+from onboard.core.nav.current import CurrentFilter
 from onboard.core.nav.types import (
     Ahrs,
     Depth,
@@ -55,6 +59,11 @@ class NavParams:
       expected). A wide prior hurts with coarse, rare fixes: 2 m fixes every 5 s cannot pin a velocity in a
       30 s mission, and a 0.2 m/s prior let the estimate drift up to 6 m (the ``sea`` campaign).
       ``max_bias_mps``: clamp on it, m/s.
+    - ``current_sigma_mps``: the water current's prior 1-sigma, m/s; ``current_walk_mps_per_sqrt_s``,
+      ``water_speed_walk_mps_per_sqrt_s``: random-walk densities of the current and of the speed through
+      the water, (m/s)/sqrt(s); ``dvl_sigma_mps``: the DVL velocity's 1-sigma, m/s; ``water_sway_sigma_mps``
+      and ``sway_per_yaw_rate_mps_per_radps``: the sideslip through the water counted as noise across the
+      heading, m/s + (m/s)/(rad/s) * |r|; ``max_current_mps``: its clamp (:mod:`onboard.core.nav.current`).
     - ``gate_chi2``: innovation gate on d^2 (2 dof; 13.8 = 99.9 %).
     - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``.
     - ``fix_timeout_s``: a fix older than this raises ``POSITION_STALE`` (dead reckoning, still valid).
@@ -69,6 +78,13 @@ class NavParams:
     bias_walk_mps_per_sqrt_s: float = 0.005
     initial_bias_sigma_mps: float = 0.05
     max_bias_mps: float = 2.0
+    current_sigma_mps: float = 1.0
+    current_walk_mps_per_sqrt_s: float = 0.002
+    water_speed_walk_mps_per_sqrt_s: float = 0.3
+    dvl_sigma_mps: float = 0.02
+    water_sway_sigma_mps: float = 0.05
+    sway_per_yaw_rate_mps_per_radps: float = 1.0
+    max_current_mps: float = 3.0
     gate_chi2: float = 13.8
     max_consecutive_rejections: int = 5
     fix_timeout_s: float = 5.0
@@ -91,8 +107,13 @@ class NavParams:
             "bias_walk_mps_per_sqrt_s",
             "initial_bias_sigma_mps",
             "max_bias_mps",
+            "current_walk_mps_per_sqrt_s",
+            "water_speed_walk_mps_per_sqrt_s",
+            "sway_per_yaw_rate_mps_per_radps",
         ):
             require(getattr(self, name) >= 0.0, f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("current_sigma_mps", "dvl_sigma_mps", "water_sway_sigma_mps", "max_current_mps"):
+            require(getattr(self, name) > 0.0, f"{name} must be > 0, got {getattr(self, name)}")
         require(self.gate_chi2 > 0.0, f"gate_chi2 must be > 0, got {self.gate_chi2}")
         require(self.max_consecutive_rejections >= 1, "max_consecutive_rejections must be >= 1")
         timeouts = ("fix_timeout_s", "max_dead_reckoning_s", "dvl_timeout_s")
@@ -166,6 +187,7 @@ class NavFilterState:
     fixes_rejected: int = 0
     consecutive_rejections: int = 0
     nan_rejected: int = 0
+    current: CurrentFilter | None = None
 
     @classmethod
     def initial(cls) -> NavFilterState:
@@ -202,6 +224,28 @@ def _horizontal_velocity(dvl: DvlVelocity, ahrs: Ahrs) -> tuple[float, float]:
     """Body velocity (FRD) rotated to NED x and y (m/s), with the ZYX Euler angles."""
     vx, vy, _ = body_to_ned(ahrs.roll_rad, ahrs.pitch_rad, ahrs.yaw_rad, dvl.u_mps, dvl.v_mps, dvl.w_mps)
     return vx, vy
+
+
+def _current_step(
+    current: CurrentFilter | None, dvl: DvlVelocity, ahrs: Ahrs, params: NavParams
+) -> CurrentFilter:
+    """The current filter after one DVL sample (started at rest on the first)."""
+    if current is None:
+        current = CurrentFilter.at_rest(dvl.t_sample_s, params.current_sigma_mps, params.dvl_sigma_mps)
+    vx, vy = _horizontal_velocity(dvl, ahrs)
+    sway = params.water_sway_sigma_mps + params.sway_per_yaw_rate_mps_per_radps * abs(ahrs.r_radps)
+    along = params.dvl_sigma_mps**2
+    return current.update(
+        dvl.t_sample_s,
+        vx,
+        vy,
+        ahrs.yaw_rad,
+        params.current_walk_mps_per_sqrt_s**2,
+        params.water_speed_walk_mps_per_sqrt_s**2,
+        along,
+        along + sway * sway,
+        params.max_current_mps,
+    )
 
 
 def _age(now_s: float, t_sample_s: float | None) -> float:
@@ -277,6 +321,11 @@ def step(
             q_pos = params.q_pos_stale
         fx = fx.predict(vx, dt_s, q_pos, params.q_bias, params.estimate_bias)
         fy = fy.predict(vy, dt_s, q_pos, params.q_bias, params.estimate_bias)
+
+    # 2b. The water current, on each new DVL sample seen with a fresh attitude.
+    current = state.current
+    if dvl is not None and ahrs is not None and ahrs_fresh and dvl.t_sample_s > state.seen_dvl_t_s:
+        current = _current_step(current, dvl, ahrs, params)
 
     # 3. Gate and apply a new position fix.
     last_fix_t_s = state.last_fix_t_s
@@ -357,8 +406,12 @@ def step(
         q_radps=ahrs.q_radps if ahrs else math.nan,
         r_radps=ahrs.r_radps if ahrs else math.nan,
         speed_mps=math.hypot(u, v),
-        current_x_mps=fx.b_mps if fx else 0.0,
-        current_y_mps=fy.b_mps if fy else 0.0,
+        velocity_bias_x_mps=fx.b_mps if fx else 0.0,
+        velocity_bias_y_mps=fy.b_mps if fy else 0.0,
+        current_north_mps=current.c_n if current else 0.0,
+        current_east_mps=current.c_e if current else 0.0,
+        current_std_mps=current.current_std_mps if current else math.inf,
+        water_speed_mps=current.u_w if current else 0.0,
         position_std_m=math.sqrt(max(fx.p00, 0.0) + max(fy.p00, 0.0)) if fx and fy else math.inf,
         position_age_s=fix_age,
         velocity_age_s=dvl_age,
@@ -382,5 +435,6 @@ def step(
         fixes_rejected=fixes_rejected,
         consecutive_rejections=consecutive,
         nan_rejected=nan_rejected,
+        current=current,
     )
     return nav, new_state, NavDebug(dt_s=dt_s, fix_d2=fix_d2, fix_accepted=fix_accepted, used_dvl=used_dvl)

@@ -13,6 +13,8 @@ import enum
 import math
 from dataclasses import dataclass
 
+from onboard.protocol.conventions import body_to_ned
+
 
 @dataclass(frozen=True)
 class PositionFix:
@@ -116,9 +118,10 @@ class NavState:
 
     Position is the Kalman estimate (NED, m); attitude, rates, depth and body velocity are the latest valid
     samples passed through. ``speed_mps`` is the horizontal speed over ground sqrt(u^2 + v^2), m/s.
-    ``current_x_mps`` / ``current_y_mps`` is the estimated velocity bias (NED, m/s): the difference between
-    the DVL dead-reckoned and the fixed position rates (water current for a water-track DVL, bias for bottom
-    track).
+    ``velocity_bias_x_mps`` / ``velocity_bias_y_mps`` is the position filter's velocity bias (NED, m/s): the
+    difference between the DVL dead-reckoned and the fixed position rates (a bottom-track DVL's bias).
+    ``current_north_mps`` / ``current_east_mps``: the estimated water current (NED, m/s; 1-sigma
+    ``current_std_mps``); ``water_speed_mps``: the speed through the water (:mod:`onboard.core.nav.current`).
     Ages are ``t_s - t_sample_s`` of the latest sample used (inf = never). ``conditions`` lists what is wrong.
     """
 
@@ -136,14 +139,23 @@ class NavState:
     q_radps: float
     r_radps: float
     speed_mps: float
-    current_x_mps: float = 0.0
-    current_y_mps: float = 0.0
+    velocity_bias_x_mps: float = 0.0
+    velocity_bias_y_mps: float = 0.0
+    current_north_mps: float = 0.0
+    current_east_mps: float = 0.0
+    current_std_mps: float = math.inf
+    water_speed_mps: float = 0.0
     position_std_m: float = math.inf
     position_age_s: float = math.inf
     velocity_age_s: float = math.inf
     attitude_age_s: float = math.inf
     depth_age_s: float = math.inf
     conditions: NavCondition = NavCondition(0)  # noqa: RUF009 (an immutable IntFlag value)
+
+    @property
+    def velocity_ned_mps(self) -> tuple[float, float, float]:
+        """The DVL's velocity over ground rotated to NED (north, east, down), m/s."""
+        return body_to_ned(self.roll_rad, self.pitch_rad, self.yaw_rad, self.u_mps, self.v_mps, self.w_mps)
 
     @property
     def position_valid(self) -> bool:

@@ -49,6 +49,13 @@ class PlannerConfig:
             angle), > 0.
         rudder_map_radius_m: radii of the steady-turn table (m), strictly increasing, > 0.
         rudder_map_rudder_deg: rudder magnitude for each radius (deg), >= 0.
+        goal_run_in_m: a goal with a heading is approached along a straight of this length ending at it
+            (m, >= 0; 0 = the paper: the last arc ends at the goal), so the errors (and a crab into a
+            current) settle before the goal; where the run-in's start is blocked or unreachable, direct.
+        current_aware: plan, in a current of speed c (the vehicle's estimate), with the turning radius
+            widened to r * U / (U - c) at the path speed U: the turn rate a fin gives is proportional to the
+            speed through the water, which a following current lowers while the speed over ground is held.
+            Where the wider turns find no path, the nominal radius is used.
         csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
@@ -61,6 +68,8 @@ class PlannerConfig:
     max_depth_slope: float = 0.25
     rudder_map_radius_m: tuple[float, ...] = _DEFAULT_MAP_RADIUS_M
     rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
+    goal_run_in_m: float = 0.0
+    current_aware: bool = False
     csc_only: bool = False
 
     def __post_init__(self) -> None:
@@ -68,6 +77,8 @@ class PlannerConfig:
         _check(_finite(r) and r > 0.0, "radius", f"turning_radius_m must be positive and finite, got {r!r}")
         m = self.obstacle_margin_m
         _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
+        g = self.goal_run_in_m
+        _check(_finite(g) and g >= 0.0, "config", f"goal_run_in_m must be >= 0 and finite, got {g!r}")
         weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
         for name, w in zip(("weight_distance", "weight_yaw", "weight_rudder"), weights, strict=True):
             _check(_finite(w) and w >= 0.0, "config", f"{name} must be >= 0 and finite, got {w!r}")

@@ -39,7 +39,7 @@ from onboard.core.planner.config import PlannerConfig
 from onboard.core.planner.cost import cost_terms
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.geometry import circle_center, circle_cuts, point_inside, segments_collide
-from onboard.core.planner.path import Path, Segment
+from onboard.core.planner.path import Path, Segment, StraightSegment
 
 Pose = tuple[float, float, float]
 GoalPose = tuple[float, float, float | None]
@@ -204,6 +204,51 @@ def _diagnose(
     return PlannerError("unreachable", f"no collision-free path to the goal among {len(obstacles)} obstacles")
 
 
+def _best(
+    start: Pose, goal: GoalPose, cfg: PlannerConfig, inflated: Sequence[tuple[float, float, float]]
+) -> tuple[str, tuple[Segment, ...], float]:
+    """(word, segments, cost) of the best collision-free path, through the goal's run-in when it has a
+    heading and ``goal_run_in_m`` > 0 (a straight of that length ending at the goal), else direct."""
+    run_in = cfg.goal_run_in_m
+    if run_in > 0.0 and goal[2] is not None:
+        gx, gy, gyaw = goal[0], goal[1], float(goal[2])
+        px, py = gx - run_in * math.cos(gyaw), gy - run_in * math.sin(gyaw)
+        last = StraightSegment(px, py, gyaw, run_in)
+        if point_inside(px, py, inflated) is None and not segments_collide((last,), inflated):
+            try:
+                word, segments, _ = _best_direct(start, (px, py, gyaw), cfg, inflated)
+            except PlannerError:
+                pass  # no way to the run-in's start: straight to the goal instead
+            else:
+                segments = (*segments, last)
+                return word + "S", segments, cost_terms(segments, cfg).total
+    return _best_direct(start, goal, cfg, inflated)
+
+
+def _best_direct(
+    start: Pose, goal: GoalPose, cfg: PlannerConfig, inflated: Sequence[tuple[float, float, float]]
+) -> tuple[str, tuple[Segment, ...], float]:
+    """(word, segments, cost) of the best collision-free path from ``start`` to ``goal`` (PlannerError if
+    none)."""
+    scored = _score(_words(start, goal, cfg), cfg, inflated)
+    free = [c for c in scored if not c.collides]
+    chosen: tuple[str, tuple[Segment, ...], float] | None = None
+    if free:
+        chosen = (free[0].word, free[0].segments, free[0].cost)
+    if inflated and scored[0].collides:
+        found = graph.search(start, goal, cfg, inflated, cost_bound=chosen[2] if chosen else math.inf)
+        if found is not None and (chosen is None or found.cost < chosen[2]):
+            word = "".join(s.kind for s in found.segments)
+            chosen = (word, found.segments, cost_terms(found.segments, cfg).total)
+    if chosen is None:
+        raise _diagnose(start, goal, cfg, inflated)
+    word, segments, cost = chosen
+    # Belt and braces: an exact check of the path that is about to be flown.
+    if segments_collide(segments, inflated):
+        raise PlannerError("unreachable", "internal check: the best path enters an obstacle; refusing it")
+    return word, segments, cost
+
+
 def plan(
     start: Pose,
     goal: GoalPose,
@@ -242,23 +287,7 @@ def plan(
             "goal_in_obstacle", f"goal ({goal[0]:g}, {goal[1]:g}) is inside inflated obstacle {hit}"
         )
 
-    scored = _score(_words(start, goal, cfg), cfg, inflated)
-    free = [c for c in scored if not c.collides]
-    chosen: tuple[str, tuple[Segment, ...], float] | None = None
-    if free:
-        chosen = (free[0].word, free[0].segments, free[0].cost)
-    if inflated and scored[0].collides:
-        found = graph.search(start, goal, cfg, inflated, cost_bound=chosen[2] if chosen else math.inf)
-        if found is not None and (chosen is None or found.cost < chosen[2]):
-            word = "".join(s.kind for s in found.segments)
-            chosen = (word, found.segments, cost_terms(found.segments, cfg).total)
-    if chosen is None:
-        raise _diagnose(start, goal, cfg, inflated)
-    word, segments, cost = chosen
-    # Belt and braces: an exact check of the path that is about to be flown.
-    if segments_collide(segments, inflated):
-        raise PlannerError("unreachable", "internal check: the best path enters an obstacle; refusing it")
-
+    word, segments, cost = _best(start, goal, cfg, inflated)
     length = sum(s.length_m for s in segments)
     dz = goal_depth_m - start_depth_m
     if abs(dz) > cfg.max_depth_slope * length + 1e-9:

@@ -40,6 +40,7 @@ def ref(**errors: float) -> GuidanceReference:
         arrived=False,
     )  # fmt: skip
     base.update(errors)
+    base.setdefault("water_speed_mps", base["speed_mps"])  # still water unless a test says otherwise
     return GuidanceReference(**base)  # type: ignore[arg-type]
 
 

@@ -147,8 +147,8 @@ def test_bias_estimate_learns_a_current() -> None:
     # GIVEN a DVL reading 1 m/s north but fixes showing 0.2 m/s extra towards east (a water current)
     nav, _ = run(120.0, truth_v=(1.0, 0.2))
     # THEN the estimated current is about 0.2 m/s east and the position follows the fixes
-    assert nav.current_y_mps == pytest.approx(0.2, abs=0.03)
-    assert nav.current_x_mps == pytest.approx(0.0, abs=0.03)
+    assert nav.velocity_bias_y_mps == pytest.approx(0.2, abs=0.03)
+    assert nav.velocity_bias_x_mps == pytest.approx(0.0, abs=0.03)
     assert nav.y_m == pytest.approx(0.2 * 120.0, abs=0.3)
 
 

@@ -1,0 +1,128 @@
+"""Unit tests of course-over-ground steering (``[guidance] steer = "course"``) and the current-aware plan."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from onboard.core.control import ControlParams
+from onboard.core.control import step as control_step
+from onboard.core.control.pd import ControllerState
+from onboard.core.guidance import GuidanceParams, GuidanceState, step
+from onboard.core.mission.model import Goal
+from onboard.core.nav import nav_state_at
+from onboard.core.planner import PlannerConfig, PlannerError, plan
+from onboard.core.planner.path import ArcSegment, Path, StraightSegment
+from onboard.core.plans import PlanRequest, compute_plan, current_radius_m
+
+COURSE = GuidanceParams(steer="course", lateral="path")
+NORTH = Path(segments=(StraightSegment(0.0, 0.0, 0.0, 50.0),), start_depth_m=1.0, end_depth_m=1.0)
+
+
+def in_current(cn: float, ce: float, *, yaw: float = 0.0, u: float = 1.0, v: float = 0.0, x: float = 5.0):
+    nav = nav_state_at(x, 0.0, 1.0, yaw, u_mps=u)
+    return dataclasses.replace(nav, v_mps=v, current_north_mps=cn, current_east_mps=ce, current_std_mps=0.01)
+
+
+def test_course_steering_heads_into_a_cross_current() -> None:
+    # GIVEN a path north and a 0.3 m/s current towards the east, the vehicle on the path heading north
+    r, _, dbg = step(in_current(0.0, 0.3), NORTH, GuidanceState(), COURSE, 0.05)
+    # THEN it is told to head west of north so that its water velocity + current points north
+    assert r.yaw_rad == pytest.approx(math.atan2(-0.3, 1.0))
+    assert dbg.crab_rad == pytest.approx(-r.yaw_rad)
+    # and the water speed that takes is the hypotenuse (the propeller's feed-forward)
+    assert r.water_speed_mps == pytest.approx(math.hypot(1.0, 0.3))
+
+
+def test_heading_steering_ignores_the_current() -> None:
+    r, _, _ = step(in_current(0.0, 0.3), NORTH, GuidanceState(), GuidanceParams(lateral="path"), 0.05)
+    assert r.yaw_rad == pytest.approx(0.0)
+    assert r.water_speed_mps == r.speed_mps
+
+
+def test_a_head_current_asks_for_more_water_speed_and_the_crab_is_clamped() -> None:
+    r, _, _ = step(in_current(-0.5, 0.0), NORTH, GuidanceState(), COURSE, 0.05)
+    assert r.yaw_rad == pytest.approx(0.0) and r.water_speed_mps == pytest.approx(1.5)
+    # a current as fast as the vehicle across the path: the crab stops at crab_max_deg
+    r, _, dbg = step(in_current(0.0, 5.0), NORTH, GuidanceState(), COURSE, 0.05)
+    assert abs(dbg.crab_rad) == pytest.approx(math.radians(COURSE.crab_max_deg))
+
+
+def test_arrival_judges_the_course_over_ground_not_the_heading() -> None:
+    # GIVEN a vehicle 0.1 m before the path's end, heading 20 deg off the final heading but moving along it
+    # (crabbing: its body velocity is a ground track due north)
+    yaw = math.radians(-20.0)
+    nav = in_current(0.0, 0.34, yaw=yaw, u=math.cos(yaw), v=-math.sin(yaw), x=49.9)
+    state = GuidanceState(s_proj_m=49.8)
+    # THEN "course" arrives and "heading" does not (the 10 deg tolerance)
+    assert step(nav, NORTH, state, COURSE, 0.0)[0].arrived
+    assert not step(nav, NORTH, state, GuidanceParams(lateral="path"), 0.0)[0].arrived
+
+
+def test_the_controller_feeds_forward_the_water_speed() -> None:
+    params = ControlParams()
+    still, _, _ = step(in_current(0.0, 0.0), NORTH, GuidanceState(), COURSE, 0.05)
+    head, _, _ = step(in_current(-0.5, 0.0), NORTH, GuidanceState(), COURSE, 0.05)
+    _, _, d_still = control_step(in_current(0.0, 0.0), still, ControllerState(), params, 0.05)
+    _, _, d_head = control_step(in_current(-0.5, 0.0), head, ControllerState(), params, 0.05)
+    g = params.gains
+    assert d_still.rps_ff == pytest.approx(g.speed_to_rps(still.speed_mps))
+    assert d_head.rps_ff == pytest.approx(g.speed_to_rps(1.5 * still.speed_mps))
+
+
+def test_the_run_in_ends_the_path_with_a_straight_along_the_goal_heading() -> None:
+    cfg = PlannerConfig(turning_radius_m=3.0, goal_run_in_m=4.0)
+    path = plan((0.0, 0.0, 0.0), (20.0, -10.0, -math.pi / 2), cfg)
+    last = path.segments[-1]
+    assert isinstance(last, StraightSegment) and last.length_m >= 4.0 - 1e-9
+    assert last.yaw_rad == pytest.approx(-math.pi / 2)
+    assert path.word.endswith("S")
+    end = path.sample(path.length_m)
+    assert (end.x_m, end.y_m) == pytest.approx((20.0, -10.0), abs=1e-9)
+
+
+def test_a_blocked_run_in_plans_direct() -> None:
+    # GIVEN an obstacle over the run-in's start (6 m before the goal along its heading)
+    cfg = PlannerConfig(turning_radius_m=3.0, goal_run_in_m=4.0, obstacle_margin_m=0.0)
+    goal = (20.0, -10.0, -math.pi / 2)
+    cfg = dataclasses.replace(cfg, goal_run_in_m=6.0)
+    path = plan((0.0, 0.0, 0.0), goal, cfg, [(20.0, -1.5, 0.5)])  # inflated to the turning radius, 3 m
+    # THEN the path goes to the goal without the run-in (its last piece is the arrival arc)
+    assert not isinstance(path.segments[-1], StraightSegment)
+    end = path.sample(path.length_m)
+    assert (end.x_m, end.y_m) == pytest.approx((20.0, -10.0), abs=1e-9)
+
+
+def test_the_turning_radius_widens_with_a_current_and_falls_back() -> None:
+    assert current_radius_m(3.0, 1.0, 0.0) == 3.0
+    assert current_radius_m(3.0, 1.0, 0.5) == pytest.approx(6.0)
+    assert current_radius_m(3.0, 1.0, 5.0) == pytest.approx(3.0 / (1.0 - 0.6))
+    cfg = PlannerConfig(turning_radius_m=3.0, current_aware=True)
+    goal = Goal(30.0, 0.0, 1.0, math.pi)  # a U-turn: its arcs show the radius
+
+    def request(current: float, planner: PlannerConfig = cfg) -> PlanRequest:
+        return PlanRequest(1, "goal", 0, (0.0, 0.0, 0.0), 1.0, goal, (), planner, 6.0, 0.0, 2.0, current, 1.0)
+
+    def radii(req: PlanRequest) -> set[float]:
+        return {round(s.radius_m, 6) for s in compute_plan(req).segments if isinstance(s, ArcSegment)}
+
+    assert radii(request(0.5)) == {6.0}
+    assert radii(request(0.0)) == {3.0}
+    # current_aware off: nominal whatever the current
+    assert radii(request(0.5, dataclasses.replace(cfg, current_aware=False))) == {3.0}
+
+
+def test_when_the_wide_turns_find_no_path_the_nominal_radius_plans() -> None:
+    # GIVEN a goal 4 m from a small obstacle: inflated to a 3 m turning radius it is clear, to 6 m it is not
+    cfg = PlannerConfig(turning_radius_m=3.0, current_aware=True, obstacle_margin_m=0.0)
+    fence = ((30.0, 4.0, 1.0),)
+    goal = Goal(30.0, 0.0, 1.0, math.pi)
+    with pytest.raises(PlannerError):
+        plan((0.0, 0.0, 0.0), (30.0, 0.0, math.pi), dataclasses.replace(cfg, turning_radius_m=6.0), fence)
+    # WHEN the plan is asked for in a 0.5 m/s current (which widens the turns to 6 m)
+    req = PlanRequest(1, "goal", 0, (0.0, 0.0, 0.0), 1.0, goal, fence, cfg, 6.0, 0.0, 2.0, 0.5, 1.0)
+    path = compute_plan(req)
+    # THEN it is planned with the nominal radius
+    assert {round(s.radius_m, 6) for s in path.segments if isinstance(s, ArcSegment)} == {3.0}
