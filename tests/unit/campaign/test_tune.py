@@ -16,7 +16,8 @@ import pytest
 
 from auv_campaign import tune
 from auv_campaign.spec import parse_spec
-from auv_campaign.tune import Param, ParamError, Score
+from auv_campaign.tune import Param, ParamError, Score, round_sig
+from onboard.app.config import DEFAULT_CONFIG_PATH
 from onboard.app.runtime import build_config
 
 optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -29,6 +30,8 @@ SPEC = {
 }  # fmt: skip
 KP5 = Param("control.improved.Kp5", -0.9, -0.3, -0.6)
 KD5 = Param("control.improved.KD5", -0.45, -0.15, -0.3)
+#: The packaged onboard.toml's Kp5 (the tuned value changes; the tests of reading it follow the file).
+FILE_KP5 = tomllib.loads(DEFAULT_CONFIG_PATH.read_text())["control"]["improved"]["Kp5"]
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +91,7 @@ def test_round_sig() -> None:
 
 # --- onboard keys ---------------------------------------------------------------------------------------
 def test_config_value_reads_the_file_and_the_defaults(config: Any) -> None:
-    assert tune.config_value(config, "control.improved.Kp5") == -0.6  # onboard.toml
+    assert tune.config_value(config, "control.improved.Kp5") == FILE_KP5  # onboard.toml
     assert tune.config_value(config, "control.improved.KD5") == -0.3  # the dataclass default
     assert tune.config_value(config, "guidance.lookahead_m") == 2.0
 
@@ -121,7 +124,7 @@ def test_resolve_params_default_and_explicit_ranges(config: Any) -> None:
     entries = tune.parse_params("control.improved.Kp5,control.improved.KD5=-1:-0.1")
     params = tune.resolve_params(entries, config, tune.onboard_accepts)
     assert params == [
-        Param("control.improved.Kp5", -0.9, -0.3, -0.6),
+        Param("control.improved.Kp5", round_sig(1.5 * FILE_KP5), round_sig(0.5 * FILE_KP5), FILE_KP5),
         Param("control.improved.KD5", -1, -0.1, -0.3),
     ]
     assert (params[0].table, params[0].leaf) == ("control.improved", "Kp5")
@@ -150,11 +153,12 @@ def test_resolve_params_checks_the_ends_together(config: Any) -> None:
 
     def accepts(sets: Any) -> str | None:
         seen.append(list(sets))
-        return "too much" if len(sets) == 2 and all("=-0.9" in s or "=-0.45" in s for s in sets) else None
+        low_ends = (f"Kp5={1.5 * FILE_KP5:g}", "KD5=-0.45")
+        return "too much" if len(sets) == 2 and all(s.endswith(low_ends) for s in sets) else None
 
     with pytest.raises(ParamError, match="low ends of the ranges together are refused: too much"):
         tune.resolve_params([(KP5.key, None), (KD5.key, None)], config, accepts)
-    assert ["control.improved.Kp5=-0.9"] in seen
+    assert [f"control.improved.Kp5={1.5 * FILE_KP5:g}"] in seen
 
 
 # --- runs ----------------------------------------------------------------------------------------------

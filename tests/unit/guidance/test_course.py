@@ -9,7 +9,7 @@ import pytest
 
 from onboard.core.control import ControlParams
 from onboard.core.control import step as control_step
-from onboard.core.control.pd import ControllerState
+from onboard.core.control.pd import ControllerState, ImprovedGains
 from onboard.core.guidance import GuidanceParams, GuidanceState, step
 from onboard.core.mission.model import Goal
 from onboard.core.nav import nav_state_at
@@ -126,3 +126,22 @@ def test_when_the_wide_turns_find_no_path_the_nominal_radius_plans() -> None:
     path = compute_plan(req)
     # THEN it is planned with the nominal radius
     assert {round(s.radius_m, 6) for s in path.segments if isinstance(s, ArcSegment)} == {3.0}
+
+
+def test_the_fin_schedule_scales_the_feedback_by_the_water_speed() -> None:
+    # GIVEN a yaw error and the schedule at 1 m/s (feed-forward off so only feedback shows)
+    gains = ImprovedGains(feedforward=False, roll_kp=0.0, roll_kd=0.0, schedule_speed_mps=1.0)
+    params = ControlParams(improved=gains)
+    ref, _, _ = step(in_current(0.0, 0.0), NORTH, GuidanceState(), GuidanceParams(), 0.05)
+    ref = dataclasses.replace(ref, e_yaw_rad=0.05, e_cross_m=0.0, yaw_rate_radps=0.0)
+
+    def rudder(water_speed_mps: float) -> float:
+        nav = dataclasses.replace(in_current(0.0, 0.0), water_speed_mps=water_speed_mps, r_radps=0.0)
+        return control_step(nav, ref, ControllerState(), params, 0.05)[2].raw.rudder_rad
+
+    # THEN half the water speed gives the feedback x 4 capped at 2.5, double gives x 1/4 floored at 1/2.5
+    assert rudder(1.0) == pytest.approx(gains.Kp6 * 0.05)
+    assert rudder(0.8) == pytest.approx(rudder(1.0) / 0.64)
+    assert rudder(0.5) == pytest.approx(2.5 * rudder(1.0))
+    assert rudder(2.0) == pytest.approx(rudder(1.0) / 2.5)
+    assert rudder(float("nan")) == pytest.approx(rudder(1.0))
