@@ -527,9 +527,7 @@ class Autopilot:
             radius,
             self._now_s,
             self.config.mission.plan_deadline_s,
-            current_mps=math.hypot(n.current_north_mps, n.current_east_mps)
-            if n.current_std_mps < 0.2
-            else 0.0,
+            current_mps=_current_mps(n),
             speed_mps=self.config.guidance.speed_mps,
         )
         self._plan_out = self._plan_wait = req
@@ -728,9 +726,6 @@ def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:
     )
 
 
-__all__ = ["ActuatorFlag", "Autopilot", "StepOutput", "nav_inputs"]
-
-
 #: The current estimate's 1-sigma (m/s) below which planning counts it (``[planner] current_aware``).
 PLAN_CURRENT_STD_MPS = 0.2
 
@@ -741,3 +736,6 @@ def _current_mps(nav_state: nav.NavState) -> float:
     if not nav_state.current_std_mps < PLAN_CURRENT_STD_MPS:
         return 0.0
     return math.hypot(nav_state.current_north_mps, nav_state.current_east_mps)
+
+
+__all__ = ["ActuatorFlag", "Autopilot", "StepOutput", "nav_inputs"]

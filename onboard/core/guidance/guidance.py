@@ -264,9 +264,9 @@ def step(
     if params.steer == "course" and nav_ok:
         cn, ce = nav.current_north_mps, nav.current_east_mps
         cos_d, sin_d = math.cos(yaw_d), math.sin(yaw_d)
-        limit = params.crab_max_rad
+        crab_limit = params.crab_max_rad
         crab = wrap_pi(yaw_d - math.atan2(speed * sin_d - ce, speed * cos_d - cn))
-        crab = min(max(crab, -limit), limit)
+        crab = min(max(crab, -crab_limit), crab_limit)
         yaw_d = wrap_pi(yaw_d - crab)
         water_speed = math.hypot(ref_speed * cos_d - cn, ref_speed * sin_d - ce)
         vn, ve, _ = nav.velocity_ned_mps
