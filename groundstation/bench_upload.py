@@ -18,6 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from auv_common.process import stop_process
 from groundstation.mavclient import MavClient
 from groundstation.mission_files import goal_item
 from groundstation.relay import LossyRelay
@@ -49,12 +50,8 @@ def start_vehicle(state_dir: Path, timeout_s: float = 10.0) -> tuple[subprocess.
 
 
 def stop_vehicle(proc: subprocess.Popen[str]) -> None:
-    proc.terminate()
-    try:
-        proc.wait(timeout=5.0)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(timeout=5.0)
+    """Stop the standalone vehicle (:func:`auv_common.process.stop_process`)."""
+    stop_process(proc)
 
 
 def _goals(n: int, k: int) -> list:  # type: ignore[type-arg]

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from auv_common.cli import join_negative_values
+from auv_common.process import stop_process
 from hil_sim.metrics import compute_metrics, read_truth
 
 DEPTH_M = 1.0
@@ -224,17 +225,6 @@ def upload_and_start(
     return info
 
 
-def _stop(proc: subprocess.Popen[Any] | None) -> None:
-    if proc is None or proc.poll() is not None:
-        return
-    proc.terminate()
-    try:
-        proc.wait(5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(5)
-
-
 def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
     """Run one scenario over real processes and return the metrics object (see the module docstring)."""
     work = Path(opts.workdir or tempfile.mkdtemp(prefix=f"auv-{sc.name}-"))
@@ -320,8 +310,8 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
             except subprocess.TimeoutExpired:
                 hil_code = -1
         finally:
-            _stop(onboard)
-            _stop(hil)
+            stop_process(onboard)
+            stop_process(hil)
     wall = time.monotonic() - t0
     bench = json.loads((work / "bench.json").read_text()) if (work / "bench.json").exists() else {}
     if hil_code != 0 or not truth.exists():

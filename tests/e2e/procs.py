@@ -7,16 +7,10 @@ import subprocess
 from collections.abc import Iterator
 from typing import Any
 
+from auv_common.process import stop_process
 
-def stop(proc: subprocess.Popen[Any]) -> None:
-    """Terminate ``proc`` (then kill it if it does not go within 5 s)."""
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+#: The e2e tests' name for it.
+stop = stop_process
 
 
 @contextlib.contextmanager

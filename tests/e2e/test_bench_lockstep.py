@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 
+from auv_common.process import stop_process
 from onboard.protocol.bus import DEFAULT_HUB_PORT, DEFAULT_REMOTE_CHANNEL, BusConfig, open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.messages import FinStatus
@@ -47,17 +48,6 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _stop(proc: subprocess.Popen[bytes]) -> None:
-    """Terminate, then kill if it does not go."""
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(3.0)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(3.0)
-
-
 @contextmanager
 def _cleanup() -> Iterator[list[subprocess.Popen[bytes]]]:
     procs: list[subprocess.Popen[bytes]] = []
@@ -65,7 +55,7 @@ def _cleanup() -> Iterator[list[subprocess.Popen[bytes]]]:
         yield procs
     finally:
         for proc in procs:
-            _stop(proc)
+            stop_process(proc, 3.0)
 
 
 def _spawn(procs: list[subprocess.Popen[bytes]], argv: list[str], log_base: Path) -> subprocess.Popen[bytes]:

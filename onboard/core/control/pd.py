@@ -310,14 +310,14 @@ def step(
     # Summed left to right from 0.0, as sum() did, so the result is the same to the bit (-0.0 included).
     rps = 0.0 + p1 + d1 + p2 + d2 + p3 + d3  # eq. 8
     rudder = 0.0 + p4 + d4 + p5 + d5 + p6 + d6  # eq. 9
-    if g.schedule_speed_mps > 0.0:
-        rudder *= _fin_scale(g, nav.water_speed_mps)
     if g.depth_mode == "cascade":  # P7 / D7 are pitch (rad), already inside P8 through the pitch command
         stern = 0.0 + p8 + d8
     else:
         stern = 0.0 + p7 + d7 + p8 + d8  # eq. 10
-    if g.schedule_speed_mps > 0.0:
-        stern *= _fin_scale(g, nav.water_speed_mps)
+    if g.schedule_speed_mps > 0.0:  # the fin feedback, both planes alike
+        scale = _fin_scale(g, nav.water_speed_mps)
+        rudder *= scale
+        stern *= scale
 
     rps_ff = rudder_ff = 0.0
     if g.feedforward:

@@ -227,12 +227,17 @@ def _horizontal_velocity(dvl: DvlVelocity, ahrs: Ahrs) -> tuple[float, float]:
 
 
 def _current_step(
-    current: CurrentFilter | None, dvl: DvlVelocity, ahrs: Ahrs, params: NavParams
+    current: CurrentFilter | None,
+    dvl: DvlVelocity,
+    ahrs: Ahrs,
+    v_ned: tuple[float, float],
+    params: NavParams,
 ) -> CurrentFilter:
-    """The current filter after one DVL sample (started at rest on the first)."""
+    """The current filter after one DVL sample, whose NED velocity is ``v_ned`` (started at rest on the
+    first)."""
     if current is None:
         current = CurrentFilter.at_rest(dvl.t_sample_s, params.current_sigma_mps, params.dvl_sigma_mps)
-    vx, vy = _horizontal_velocity(dvl, ahrs)
+    vx, vy = v_ned
     sway = params.water_sway_sigma_mps + params.sway_per_yaw_rate_mps_per_radps * abs(ahrs.r_radps)
     along = params.dvl_sigma_mps**2
     return current.update(
@@ -311,9 +316,11 @@ def step(
     # 2. Predict with the DVL velocity rotated to NED (coast on the bias with more noise without it).
     fx, fy = state.x, state.y
     used_dvl = False
+    # The DVL velocity in NED, once a tick: the position predict and the current filter both take it.
+    v_ned = _horizontal_velocity(dvl, ahrs) if dvl is not None and ahrs is not None and ahrs_fresh else None
     if fx is not None and fy is not None and dt_s > 0.0:
-        if dvl is not None and ahrs is not None and dvl_fresh and ahrs_fresh:
-            vx, vy = _horizontal_velocity(dvl, ahrs)
+        if v_ned is not None and dvl_fresh:
+            vx, vy = v_ned
             q_pos = params.q_pos_dvl
             used_dvl = True
         else:
@@ -324,8 +331,8 @@ def step(
 
     # 2b. The water current, on each new DVL sample seen with a fresh attitude.
     current = state.current
-    if dvl is not None and ahrs is not None and ahrs_fresh and dvl.t_sample_s > state.seen_dvl_t_s:
-        current = _current_step(current, dvl, ahrs, params)
+    if v_ned is not None and dvl is not None and ahrs is not None and dvl.t_sample_s > state.seen_dvl_t_s:
+        current = _current_step(current, dvl, ahrs, v_ned, params)
 
     # 3. Gate and apply a new position fix.
     last_fix_t_s = state.last_fix_t_s
