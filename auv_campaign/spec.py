@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from auv_common.cli import yaml_error_line
 from auv_common.config import ConfigError
 
 #: Sensor profiles of the simulator (``[sensors.*]`` of ``hil_sim/params/isimi100.toml``).
@@ -917,7 +918,7 @@ def load_spec(path: str | Path, *, seed_offset: int = 0, random_seed_offset: int
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise SpecError(f"{p}: not valid YAML: {' '.join(str(exc).split())}") from None
+        raise SpecError(f"{p}: not valid YAML: {yaml_error_line(exc)}") from None
     return parse_spec(data, str(p), seed_offset=seed_offset, random_seed_offset=random_seed_offset)
 
 

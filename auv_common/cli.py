@@ -57,3 +57,13 @@ def run_bench_sections(prog: str, sections: dict[str, str], argv: list[str] | No
     with open(args.json, "w") as f:
         json.dump(result, f, indent=2)
     return 0
+
+
+def yaml_error_line(exc: Exception) -> str:
+    """A YAML parse error in one line: ``line L, column C: problem`` where PyYAML marks it (the parsers'
+    multi-line messages with a caret drawing are for terminals, not for one-line refusals)."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None)
+    if mark is not None and problem:
+        return f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
+    return " ".join(str(exc).split())

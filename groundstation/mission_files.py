@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common.cli import yaml_error_line
 from groundstation.mavclient import Item
 
 LOCAL_SCALE = 1e4
@@ -76,8 +77,10 @@ def _num(where: str, d: dict[str, Any], key: str, optional: bool = False) -> flo
 def load_yaml(path: Path) -> tuple[list[Item], list[Item]]:
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
+    except OSError as exc:
         raise MissionFileError(f"{path}: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise MissionFileError(f"{path}: not valid YAML ({yaml_error_line(exc)})") from None
     if not isinstance(data, dict):
         raise MissionFileError(f"{path}: expected a mapping with 'goals' and/or 'obstacles'")
     unknown = set(data) - {"goals", "obstacles"}

@@ -22,6 +22,7 @@ from typing import Any
 
 import yaml
 
+from auv_common.cli import yaml_error_line
 from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Goal, Mission, MissionError, Obstacle
 from onboard.core.mission.validate import check_mission
@@ -108,5 +109,5 @@ def load_mission(path: str | Path, config: CoreConfig) -> Mission:
     except OSError as exc:
         raise MissionError("file", f"{p}: {exc.strerror}") from None
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise MissionError("format", f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        raise MissionError("format", f"{p}: not valid YAML ({yaml_error_line(exc)})") from None
     return mission_from_dict(data, config, str(p))

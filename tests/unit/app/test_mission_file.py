@@ -85,3 +85,17 @@ def test_format_and_limit_errors(tmp_path: Path, text: str, match: str) -> None:
 def test_a_missing_file(tmp_path: Path) -> None:
     with pytest.raises(MissionError, match="No such file"):
         load_mission(tmp_path / "nope.yaml", CFG)
+
+
+def test_a_broken_yaml_file_is_one_line_with_its_place_at_every_door(tmp_path: Path) -> None:
+    # GIVEN a flow list left open (PyYAML's message spans five lines with a caret drawing)
+    from groundstation.mission_files import MissionFileError, load_yaml
+
+    broken = mission_file(tmp_path, "goals: [{x_m: 1}\n")
+    # THEN the onboard's loader and the ground station's each say it in one line, with the place
+    with pytest.raises(MissionError) as onboard:
+        load_mission(broken, CFG)
+    with pytest.raises(MissionFileError) as gcs:
+        load_yaml(broken)
+    for text in (str(onboard.value), str(gcs.value)):
+        assert "\n" not in text and "not valid YAML (line 2, column 1: expected ',' or ']'" in text
