@@ -10,6 +10,7 @@ sample was taken, ``t_sample_s``, on the same time base as the ``now_s`` given t
 from __future__ import annotations
 
 import enum
+import functools
 import math
 from dataclasses import dataclass
 
@@ -152,9 +153,10 @@ class NavState:
     depth_age_s: float = math.inf
     conditions: NavCondition = NavCondition(0)  # noqa: RUF009 (an immutable IntFlag value)
 
-    @property
+    @functools.cached_property
     def velocity_ned_mps(self) -> tuple[float, float, float]:
-        """The DVL's velocity over ground rotated to NED (north, east, down), m/s."""
+        """The DVL's velocity over ground rotated to NED (north, east, down), m/s (computed once per state:
+        the guidance and the controller both ask)."""
         return body_to_ned(self.roll_rad, self.pitch_rad, self.yaw_rad, self.u_mps, self.v_mps, self.w_mps)
 
     @property
