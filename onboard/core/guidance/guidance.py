@@ -19,8 +19,10 @@ that direction the course over ground chi_d and heads where the water velocity m
 estimated current c (:mod:`onboard.core.nav.current`): psi_d = atan2(U sin chi_d - c_e, U cos chi_d - c_n)
 with U = ``speed_mps`` (the crab angle chi_d - psi_d, clamped to +-``crab_max_deg``). The speed through the
 water this needs at the reference speed, |U_ref (cos chi_d, sin chi_d) - c|, goes to the controller
-(``water_speed_mps``: its propeller and curvature feed-forwards). Arrival then judges the course over ground
-(the DVL's, above ``crab_min_speed_mps``), not the heading: crabbing is expected.
+(``water_speed_mps``: its propeller and curvature feed-forwards). Along an arc the crab changes with the
+course, so the yaw-rate feed-forward is the course rate times d psi_d / d chi_d = U (U - c_along) / |w|^2
+(w the water velocity above; 1 in still water). Arrival then judges the course over ground (the DVL's,
+above ``crab_min_speed_mps``), not the heading: crabbing is expected.
 
 In every mode the yaw-rate feed-forward is r_d = U * curvature (rad/s, + = right turn) at the reference point.
 
@@ -261,11 +263,17 @@ def step(
     crab = 0.0
     water_speed = ref_speed
     course_a = yaw_a
+    turn_rate_factor = 1.0
     if params.steer == "course" and nav_ok:
         cn, ce = nav.current_north_mps, nav.current_east_mps
         cos_d, sin_d = math.cos(yaw_d), math.sin(yaw_d)
         crab_limit = params.crab_max_rad
-        crab = wrap_pi(yaw_d - math.atan2(speed * sin_d - ce, speed * cos_d - cn))
+        w_n, w_e = speed * cos_d - cn, speed * sin_d - ce  # the water velocity the course takes
+        crab = wrap_pi(yaw_d - math.atan2(w_e, w_n))
+        if abs(crab) < crab_limit:
+            # d psi_d / d chi_d: along an arc the crab changes with the course, so the heading turns at
+            # this times the course's rate (U (U - c_along) / |w|^2; the yaw-rate feed-forward takes it)
+            turn_rate_factor = speed * (speed - cn * cos_d - ce * sin_d) / max(w_n * w_n + w_e * w_e, 1e-6)
         crab = min(max(crab, -crab_limit), crab_limit)
         yaw_d = wrap_pi(yaw_d - crab)
         water_speed = math.hypot(ref_speed * cos_d - cn, ref_speed * sin_d - ce)
@@ -303,7 +311,7 @@ def step(
         x_rate_mps=ref_speed * math.cos(ref.yaw_rad),
         y_rate_mps=ref_speed * math.sin(ref.yaw_rad),
         depth_rate_mps=ref_speed * slope,
-        yaw_rate_radps=ref_speed * curvature,
+        yaw_rate_radps=ref_speed * curvature * turn_rate_factor,
         pitch_rate_radps=0.0,
         speed_mps=ref_speed,
         water_speed_mps=water_speed,

@@ -145,3 +145,25 @@ def test_the_fin_schedule_scales_the_feedback_by_the_water_speed() -> None:
     assert rudder(0.5) == pytest.approx(2.5 * rudder(1.0))
     assert rudder(2.0) == pytest.approx(rudder(1.0) / 2.5)
     assert rudder(float("nan")) == pytest.approx(rudder(1.0))
+
+
+def test_on_an_arc_in_a_current_the_yaw_rate_feed_forward_counts_the_changing_crab() -> None:
+    # GIVEN a right arc of radius 5 m (course rate U / 5) and a 0.3 m/s current towards the north-east
+    arc = Path(segments=(ArcSegment(0.0, 5.0, 5.0, +1, 0.0, math.pi),), start_depth_m=1.0, end_depth_m=1.0)
+    params = dataclasses.replace(COURSE, lookahead_m=1e6)  # no LOS correction: chi_d = the path tangent
+    cn, ce = 0.3 * math.cos(math.pi / 4), 0.3 * math.sin(math.pi / 4)
+    nav = dataclasses.replace(in_current(cn, ce, x=0.0), y_m=0.0)
+    r, _, _ = step(nav, arc, GuidanceState(), params, 0.0)
+    # THEN r_d = (d chi / dt) (d psi_d / d chi), the derivative taken numerically from the heading rule
+    u, chi, eps = COURSE.speed_mps, 0.0, 1e-6
+
+    def psi(c: float) -> float:
+        return math.atan2(u * math.sin(c) - ce, u * math.cos(c) - cn)
+
+    dpsi_dchi = (psi(chi + eps) - psi(chi - eps)) / (2 * eps)
+    assert r.yaw_rate_radps == pytest.approx(r.speed_mps / 5.0 * dpsi_dchi, rel=1e-5)
+    assert abs(dpsi_dchi - 1.0) > 0.05  # the crab does change along this arc
+    # and in still water the feed-forward is the course rate itself
+    still, _, _ = step(dataclasses.replace(nav, current_north_mps=0.0, current_east_mps=0.0), arc,
+                       GuidanceState(), params, 0.0)  # fmt: skip
+    assert still.yaw_rate_radps == pytest.approx(still.speed_mps / 5.0)
