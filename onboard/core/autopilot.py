@@ -492,6 +492,10 @@ class Autopilot:
                 )
             return
         self.planner_error = ""
+        if result.note:
+            text = f"{req.kind} {req.goal_index}: {result.note}"
+            log.warning("%s", text)
+            self._note(c.Severity.WARNING, text)
         self.path, self.path_goal_index, self.path_kind = result, req.goal_index, req.kind
         self.guidance_state = guidance.GuidanceState()
         self.controller_state = control.ControllerState(command=self.controller_state.command)

@@ -237,7 +237,7 @@ def _check_obstacle(i: int, o: Obstacle, config: CoreConfig) -> list[Problem]:
 def _check_geometry(mission: Mission, config: CoreConfig) -> list[Problem]:
     if not mission.obstacles:
         return []
-    pc = config.planner
+    pc = config.planner.tightest  # a goal the planner's fallback radius clears is a goal it can plan to
     inflated = inflate(mission.obstacles, pc)
     out = []
     for i, g in enumerate(mission.goals):

@@ -12,6 +12,7 @@ arc length. The defaults (Wd = 1, Wpsi = WdR = 0) give the true Dubins shortest 
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
@@ -56,6 +57,10 @@ class PlannerConfig:
             widened to r * U / (U - c) at the path speed U: the turn rate a fin gives is proportional to the
             speed through the water, which a following current lowers while the speed over ground is held.
             Where the wider turns find no path, the nominal radius is used.
+        min_turning_radius_m: where the planning radius finds no path (both turning circles blocked,
+            no way among the obstacles, a start or goal inside an obstacle inflated to the radius), plan
+            again with this tighter radius (m; 0 = never; below ``turning_radius_m``): the path then says so
+            (``Path.note``, a warning to the operator); if that fails too, the refusal at the planning radius.
         csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
@@ -69,6 +74,7 @@ class PlannerConfig:
     rudder_map_radius_m: tuple[float, ...] = _DEFAULT_MAP_RADIUS_M
     rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
     goal_run_in_m: float = 0.0
+    min_turning_radius_m: float = 0.0
     current_aware: bool = False
     csc_only: bool = False
 
@@ -77,6 +83,8 @@ class PlannerConfig:
         _check(_finite(r) and r > 0.0, "radius", f"turning_radius_m must be positive and finite, got {r!r}")
         m = self.obstacle_margin_m
         _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
+        t = self.min_turning_radius_m
+        _check(_finite(t) and t >= 0.0, "config", f"min_turning_radius_m must be >= 0 and finite, got {t!r}")
         g = self.goal_run_in_m
         _check(_finite(g) and g >= 0.0, "config", f"goal_run_in_m must be >= 0 and finite, got {g!r}")
         weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
@@ -108,3 +116,12 @@ class PlannerConfig:
             "config",
             f"rudder_map_rudder_deg must be in [0, 90] deg, got {rudders!r}",
         )
+
+    @property
+    def tightest(self) -> PlannerConfig:
+        """This configuration at ``min_turning_radius_m``, the tightest a plan may fall back to (itself when
+        there is no fallback): what the mission validator judges a goal's clearance with."""
+        tight = self.min_turning_radius_m
+        if 0.0 < tight < self.turning_radius_m:
+            return dataclasses.replace(self, turning_radius_m=tight)
+        return self

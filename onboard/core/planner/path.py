@@ -121,6 +121,8 @@ class Path:
     cost: float = 0.0
     # Start pose, used for a zero-length path (start == goal).
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # What the operator should know of how it was planned ("" = nothing), e.g. a tighter turning radius.
+    note: str = ""
     # Derived once (the path is immutable): cumulative arc lengths, the depth slope and path pitch, and the
     # end sample (guidance asks for it every tick).
     _cum_m: tuple[float, ...] = field(init=False, repr=False, compare=False)

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 from onboard.core.planner import dubins, graph
@@ -275,6 +275,38 @@ def plan(
     cfg = config or PlannerConfig()
     _validate_poses(start, goal, start_depth_m, goal_depth_m)
     start = (float(start[0]), float(start[1]), float(start[2]))
+    obstacles = tuple(obstacles)
+    try:
+        return _plan(start, goal, cfg, obstacles, float(start_depth_m), float(goal_depth_m))
+    except PlannerError as exc:
+        tight = cfg.tightest
+        if tight is cfg or exc.reason not in TIGHTER_RADIUS_HELPS:
+            raise
+        try:
+            path = _plan(start, goal, tight, obstacles, float(start_depth_m), float(goal_depth_m))
+        except PlannerError:
+            raise exc from None  # the refusal at the planning radius names what blocks it
+        radius = tight.turning_radius_m
+        note = f"planned with the tighter turning radius {radius:g} m: at {cfg.turning_radius_m:g} m, {exc}"
+        return replace(path, note=note)
+
+
+#: Refusals a tighter turning radius may lift (smaller turning circles, and obstacles inflated to at least
+#: the radius grow less); a depth slope needs a longer path, which tighter turns never give.
+TIGHTER_RADIUS_HELPS = frozenset(
+    {"turning_circle_blocked", "unreachable", "start_in_obstacle", "goal_in_obstacle"}
+)
+
+
+def _plan(
+    start: Pose,
+    goal: GoalPose,
+    cfg: PlannerConfig,
+    obstacles: Sequence[ObstacleInput],
+    start_depth_m: float,
+    goal_depth_m: float,
+) -> Path:
+    """:func:`plan` at the configured turning radius (no fallback)."""
     inflated = inflate(obstacles, cfg)
     hit = point_inside(start[0], start[1], inflated)
     if hit is not None:
@@ -299,8 +331,8 @@ def plan(
         )
     return Path(
         segments=segments,
-        start_depth_m=float(start_depth_m),
-        end_depth_m=float(goal_depth_m),
+        start_depth_m=start_depth_m,
+        end_depth_m=goal_depth_m,
         virtual_goals=virtual_goals(segments),
         word=word,
         cost=cost,

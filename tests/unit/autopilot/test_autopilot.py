@@ -415,3 +415,18 @@ def test_a_loiter_that_falls_back_to_surfacing_is_not_armed() -> None:
     out = tick(ap, 0.2, x=20.05)
     assert out.status.state is S.COMPLETE and ap.path_kind == "surface"
     assert not ap.actuators_live and out.propeller_rps == 0.0 and out.mode is m.ActuatorMode.SAFE
+
+
+def test_a_plan_at_the_tighter_turning_radius_warns_the_operator() -> None:
+    # GIVEN random mission r44 (both 2.93 m start circles blocked), the vehicle at its start pose
+    x, y, yaw = -7.51, 15.4, math.radians(161.4)
+    fence = (Obstacle(-16.19, -15.97, 3.41), Obstacle(-11.76, 15.64, 1.83))
+    ap = Autopilot(core())
+    assert ap.replace_mission(Mission((Goal(-21.61, -26.34, 1.0, math.radians(203.2)),), fence)).accepted
+    ap.request_autostart()
+    for k in range(3):
+        tick(ap, k * DT, x=x, y=y, yaw=yaw)
+    # THEN it flies (RUNNING, a path) and says which radius it planned with, and why
+    assert ap.status.state is S.RUNNING and ap.path is not None
+    notes = [n.text for n in ap.take_notes()]
+    assert any("goal 0: planned with the tighter turning radius 2.5 m" in t for t in notes), notes
