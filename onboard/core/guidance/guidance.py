@@ -9,7 +9,8 @@ Modes (``[guidance] mode``):
   the revised PD (eqs. 8-10) are e = x_d - x_a (eq. 4) resolved in the path frame at the reference point.
 - ``los``: path following. The reference point is the vehicle's projection on the path; the desired yaw is
   psi_d = psi_p + atan(e_cross / lookahead) (e_cross = cross-track error, + when the path is to starboard).
-  The along-track error is 0 (speed comes from the controller's speed map).
+  The along-track error is 0 (speed from the controller's speed map), or with ``speed_loop_limit_m`` the
+  integral of the speed error over ground along the path (a speed loop through eq. 8).
 - ``ilos``: integral LOS (Borhaug, Pavlov, Pettersen 2008): psi_d = psi_p + atan((e_cross + sigma*I) / Delta),
   dI/dt = U * Delta * e_cross / ((e_cross + sigma*I)^2 + Delta^2), so a constant current is rejected with no
   steady cross-track offset. |sigma*I| is clamped to Delta*tan(``ilos_max_correction_deg``).
@@ -66,16 +67,21 @@ class GuidanceParams:
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
     - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
     - ``search_back_m``, ``search_ahead_m``: window of the projection around the previous one, m.
-    - ``reference_accel_mps2``: ``track`` only: the reference starts at rest and speeds up at this rate to
+    - ``reference_accel_mps2``: the reference speed starts at rest and speeds up at this rate to
       ``speed_mps`` (0 = the paper's uniform speed from the first instant, which a vehicle starting at rest
-      cannot follow: the along-track error grows at the start, paper Fig. 10).
+      cannot follow: the along-track error grows at the start, paper Fig. 10); in ``los`` / ``ilos`` it is
+      the speed the feed-forward and the speed loop ask for.
     - ``lateral``: ``track`` only: ``"reference"`` (the paper: cross-track and yaw errors at the moving
       reference point) or ``"path"`` (at the vehicle's projection on the path, with a LOS heading
       correction over ``lookahead_m``; the reference point then only sets the along-track error). When the
       vehicle lags, "reference" makes it cut corners towards a point already around the bend.
-    - ``curvature_preview_s``: ``lateral = "path"`` only: the yaw-rate feed-forward uses the curvature this
-      many seconds (at the commanded speed ``speed_mps``) ahead of the projection, so the rudder moves
-      before the arc begins (the fins and the yaw dynamics lag by a fraction of a second).
+    - ``curvature_preview_s``: ``lateral = "path"``, ``los`` and ``ilos``: the yaw-rate feed-forward uses the
+      curvature this many seconds (at the commanded speed ``speed_mps``) ahead of the projection, so the
+      rudder moves before the arc begins (the fins and the yaw dynamics lag by a fraction of a second).
+    - ``speed_loop_limit_m``: ``los`` / ``ilos`` only: with > 0, the speed over ground along the path is held
+      at the reference speed through eq. 8's along-track terms: e_x is the integral of (U_ref - speed along
+      the path), limited to +-this (m; anti-windup), so Kp1 integrates and KD1 is proportional on the speed
+      error; 0 = the textbook LOS, speed from the controller's speed map alone.
     - ``steer``: ``"heading"`` (the paper) or ``"course"`` (course over ground, module docstring);
       ``crab_max_deg`` (deg): the clamp on the crab angle; ``crab_min_speed_mps`` (m/s): below this speed
       over ground arrival judges the heading (the DVL's course is noise at rest).
@@ -98,6 +104,7 @@ class GuidanceParams:
     lateral: Literal["reference", "path"] = "reference"
     curvature_preview_s: float = 0.0
     cross_error_limit_m: float = 0.0
+    speed_loop_limit_m: float = 0.0
     steer: Literal["heading", "course"] = "heading"
     crab_min_speed_mps: float = 0.3
     crab_max_deg: float = 40.0
@@ -116,6 +123,7 @@ class GuidanceParams:
         require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
         require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
         require(self.cross_error_limit_m >= 0.0, "cross_error_limit_m must be >= 0")
+        require(self.speed_loop_limit_m >= 0.0, "speed_loop_limit_m must be >= 0")
         require(self.crab_min_speed_mps > 0.0, "crab_min_speed_mps must be > 0")
         require(0.0 <= self.crab_max_deg < 90.0, "crab_max_deg must be in [0, 90)")
         object.__setattr__(self, "crab_max_rad", math.radians(self.crab_max_deg))
@@ -129,7 +137,7 @@ class GuidanceState:
 
     ``t_s``: time since the path became active, s; ``s_ref_m``: arc length of the moving reference (track);
     ``s_proj_m``: the vehicle's last projection (None before the first); ``ilos_int_m``: the ILOS integral I;
-    ``arrived``: latched arrival.
+    ``speed_int_m``: the LOS speed loop's along-track error, m; ``arrived``: latched arrival.
     """
 
     t_s: float = 0.0
@@ -138,6 +146,7 @@ class GuidanceState:
     ilos_int_m: float = 0.0
     arrived: bool = False
     ref_speed_mps: float = 0.0
+    speed_int_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -223,9 +232,9 @@ def step(
     ilos_int = state.ilos_int_m
     s_ref = state.s_ref_m
     ref_speed = speed
+    if params.reference_accel_mps2 > 0.0:  # the speed asked for starts at rest (every mode)
+        ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
     if mode == "track":
-        if params.reference_accel_mps2 > 0.0:
-            ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
         s_ref += ref_speed * dt_s
         ref = sample_extended(path, s_ref)
     else:
@@ -247,8 +256,19 @@ def step(
             curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
         else:
             e_along, e_cross = path_frame(ref.x_m - x_a, ref.y_m - y_a, ref.yaw_rad)
+    speed_int = state.speed_int_m
     if mode != "track":
         e_along = 0.0
+        if params.speed_loop_limit_m > 0.0 and nav_ok:
+            # The speed loop: the along-track error of a reference that would move at ref_speed over
+            # ground, integrated from the speed over ground along the path (limited: anti-windup)
+            vn, ve, _ = nav.velocity_ned_mps
+            along = vn * math.cos(proj.yaw_rad) + ve * math.sin(proj.yaw_rad)
+            lim = params.speed_loop_limit_m
+            speed_int = min(max(speed_int + dt_s * (ref_speed - along), -lim), lim)
+            e_along = speed_int
+        if nav_ok:
+            curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
         delta = params.lookahead_m
         sigma = params.ilos_gain if mode == "ilos" else 0.0
         if mode == "ilos" and nav_ok:
@@ -334,6 +354,7 @@ def step(
         ilos_int_m=ilos_int,
         arrived=arrived,
         ref_speed_mps=ref_speed,
+        speed_int_m=speed_int,
     )
     debug = GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int, crab_rad=crab)
     return reference, new_state, debug

@@ -167,3 +167,35 @@ def test_on_an_arc_in_a_current_the_yaw_rate_feed_forward_counts_the_changing_cr
     still, _, _ = step(dataclasses.replace(nav, current_north_mps=0.0, current_east_mps=0.0), arc,
                        GuidanceState(), params, 0.0)  # fmt: skip
     assert still.yaw_rate_radps == pytest.approx(still.speed_mps / 5.0)
+
+
+def test_the_los_speed_loop_integrates_the_speed_error_over_ground_and_is_limited() -> None:
+    # GIVEN LOS with the speed loop, a vehicle on the path making 0.6 m/s over ground against 1 m/s asked
+    params = GuidanceParams(mode="los", speed_loop_limit_m=0.5)
+    nav = in_current(0.0, 0.0, u=0.6)
+    state = GuidanceState()
+    r, state, _ = step(nav, NORTH, state, params, 0.5)
+    # THEN e_x is the integral of the speed error (0.4 m/s for 0.5 s), up to the limit (anti-windup)
+    assert r.e_along_m == pytest.approx(0.2)
+    for _ in range(10):
+        r, state, _ = step(nav, NORTH, state, params, 0.5)
+    assert r.e_along_m == pytest.approx(0.5)
+    # faster than asked: it unwinds at once
+    r, state, _ = step(in_current(0.0, 0.0, u=1.4), NORTH, state, params, 0.5)
+    assert r.e_along_m == pytest.approx(0.3)
+    # and the textbook LOS (no speed loop) has no along-track error
+    assert step(nav, NORTH, GuidanceState(), GuidanceParams(mode="los"), 0.5)[0].e_along_m == 0.0
+
+
+def test_los_previews_the_curvature_ahead_of_the_projection() -> None:
+    # GIVEN 10 m of straight then a right arc of radius 5 m, the vehicle 0.5 m before the arc
+    path = Path(
+        segments=(StraightSegment(0.0, 0.0, 0.0, 10.0), ArcSegment(10.0, 5.0, 5.0, +1, 0.0, math.pi / 2)),
+        start_depth_m=1.0,
+        end_depth_m=1.0,
+    )
+    nav = dataclasses.replace(in_current(0.0, 0.0), x_m=9.5)
+    plain = GuidanceParams(mode="los")
+    preview = GuidanceParams(mode="los", curvature_preview_s=1.0)
+    assert step(nav, path, GuidanceState(), plain, 0.0)[0].curvature_1pm == 0.0
+    assert step(nav, path, GuidanceState(), preview, 0.0)[0].curvature_1pm == pytest.approx(0.2)
