@@ -732,14 +732,17 @@ def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:
 
 #: The current estimate's 1-sigma (m/s) below which planning counts it (``[planner] current_aware``).
 PLAN_CURRENT_STD_MPS = 0.2
+#: Currents slower than this (m/s) are planned as still water (the estimate's noise is not a current).
+PLAN_CURRENT_MIN_MPS = 0.05
 
 
 def _current_mps(nav_state: nav.NavState) -> float:
     """The estimated water current's speed (m/s) for planning, 0 while the estimate is vaguer than
-    :data:`PLAN_CURRENT_STD_MPS`."""
+    :data:`PLAN_CURRENT_STD_MPS` or the current slower than :data:`PLAN_CURRENT_MIN_MPS`."""
     if not nav_state.current_std_mps < PLAN_CURRENT_STD_MPS:
         return 0.0
-    return math.hypot(nav_state.current_north_mps, nav_state.current_east_mps)
+    speed = math.hypot(nav_state.current_north_mps, nav_state.current_east_mps)
+    return speed if speed >= PLAN_CURRENT_MIN_MPS else 0.0
 
 
 __all__ = ["ActuatorFlag", "Autopilot", "StepOutput", "nav_inputs"]

@@ -75,10 +75,10 @@ def compute_plan(request: PlanRequest) -> Path:
 
         if nominal.current_aware and request.current_mps > 0.0:
             radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
-            try:
-                return to_goal(replace(nominal, turning_radius_m=radius))
+            try:  # wider turns first, with no tighter fallback of their own: the nominal radius comes next
+                return to_goal(replace(nominal, turning_radius_m=radius, min_turning_radius_m=0.0))
             except PlannerError:
-                pass  # the wider turns find no way: the nominal radius
+                pass  # the wider turns find no way: the nominal radius (and its own fallback)
         return to_goal(nominal)
     # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
     r = request.loiter_radius_m

@@ -199,3 +199,15 @@ def test_los_previews_the_curvature_ahead_of_the_projection() -> None:
     preview = GuidanceParams(mode="los", curvature_preview_s=1.0)
     assert step(nav, path, GuidanceState(), plain, 0.0)[0].curvature_1pm == 0.0
     assert step(nav, path, GuidanceState(), preview, 0.0)[0].curvature_1pm == pytest.approx(0.2)
+
+
+def test_in_a_current_the_nominal_radius_comes_before_the_tighter_fallback() -> None:
+    # GIVEN random mission r44 (both 2.93 m start circles blocked; a 2.5 m fallback plans it), 0.1 m/s
+    planner = PlannerConfig(turning_radius_m=2.93, current_aware=True, min_turning_radius_m=2.5)
+    fence = ((-16.19, -15.97, 3.41), (-11.76, 15.64, 1.83))
+    goal = Goal(-21.61, -26.34, 1.0, math.radians(203.2))
+    start = (-7.51, 15.4, math.radians(161.4))
+    req = PlanRequest(1, "goal", 0, start, 1.0, goal, fence, planner, 6.0, 0.0, 2.0, 0.1, 1.0)
+    # THEN the note names the nominal radius the fallback replaced, not the current-widened one
+    note = compute_plan(req).note
+    assert note.startswith("planned with the tighter turning radius 2.5 m: at 2.93 m,"), note
