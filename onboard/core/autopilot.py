@@ -22,6 +22,9 @@ Truth rules kept here, in one place:
   than the radius; else HOLD: the arrival cannot be confirmed); farther off it is a miss: re-planned from
   where the vehicle is to the same goal pose (the paper's homing), up to ``max_tries`` attempts, then HOLD
   with the reason.
+- A goal path planned for one water current (``[planner] current_aware``) is planned again, from where the
+  vehicle is, when the estimate has moved by ``REPLAN_CURRENT_CHANGE_MPS`` (the start's estimate is a guess
+  until the vehicle turns), with a note to the operator; if that plan fails the path flown stays.
 - After the last goal the end action runs: ``surface`` (propeller 0 and fins neutral at once) or ``loiter``
   (circle the last goal at its depth). Nothing drives on past the goal.
 """
@@ -44,7 +47,7 @@ from onboard.core.mission.validate import check_limits
 from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
-from onboard.core.plans import PlanRequest
+from onboard.core.plans import PlanRequest, current_radius_m
 from onboard.core.safety import failsafe
 from onboard.core.safety.failsafe import FailsafeFlag
 from onboard.protocol import messages as m
@@ -175,6 +178,8 @@ class Autopilot:
     _plan_wait: PlanRequest | None = None  # taken (or asked for): the result is awaited
     _plan_ids: int = 0
     _now_s: float = 0.0
+    _path_current_mps: float = 0.0  # the current (m/s) the flown path was planned for
+    _path_t_s: float = -math.inf  # when the flown path was asked for (the core's time, s)
 
     # --- what the links read --------------------------------------------------------------------
     @property
@@ -476,6 +481,11 @@ class Autopilot:
         )
         if not wanted:
             return
+        if isinstance(result, PlannerError) and req.replan and self.path is not None:
+            # the path flown now stays: it was planned for another current, not made impossible by it
+            log.warning("re-plan for the current failed, the path flown stays: %s: %s", result.reason, result)
+            self._path_current_mps, self._path_t_s = req.current_mps, req.t_s
+            return
         if isinstance(result, PlannerError):
             self.planner_error = f"{result.reason}: {result}"
             log.error("cannot plan %s %d: %s", req.kind, req.goal_index, self.planner_error)
@@ -492,6 +502,14 @@ class Autopilot:
                 )
             return
         self.planner_error = ""
+        self._path_current_mps, self._path_t_s = req.current_mps, req.t_s
+        if req.replan:
+            text = (
+                f"goal {req.goal_index}: re-planned for the current now estimated, {req.current_mps:.2f} m/s "
+                f"(the path flown was planned for {req.planned_current_mps:.2f} m/s)"
+            )
+            log.info("%s", text)
+            self._note(c.Severity.INFO, text)
         if result.note:
             text = f"{req.kind} {req.goal_index}: {result.note}"
             log.warning("%s", text)
@@ -512,7 +530,7 @@ class Autopilot:
         self.path, self.path_goal_index, self.path_kind = None, -1, ""
         self._plan_out = self._plan_wait = None
 
-    def _ask_plan(self, kind: str) -> None:
+    def _ask_plan(self, kind: str, replan: bool = False) -> None:
         n = self.last_nav
         if n is None:
             return
@@ -533,6 +551,8 @@ class Autopilot:
             self.config.mission.plan_deadline_s,
             current_mps=_current_mps(n),
             speed_mps=self.config.guidance.speed_mps,
+            replan=replan,
+            planned_current_mps=self._path_current_mps,
         )
         self._plan_out = self._plan_wait = req
 
@@ -601,6 +621,8 @@ class Autopilot:
                     command, self.controller_state, _ = control.step(
                         nav_state, reference, self.controller_state, cfg.control, dt_s
                     )
+                    if self._current_changed(nav_state):
+                        self._ask_plan("goal", replan=True)
                 else:
                     reference = None
         elif state is _COMPLETE and cfg.mission.end_action == "loiter" and self.path_kind != "surface":
@@ -648,6 +670,24 @@ class Autopilot:
             failsafe_flags=fs_flags,
             planner_error=self.planner_error,
         )
+
+    def _current_changed(self, nav_state: nav.NavState) -> bool:
+        """True when the flown goal path should be planned again for the current now estimated: the
+        planner widens turns for a current (``current_aware``), the estimate has moved by
+        :data:`REPLAN_CURRENT_CHANGE_MPS` since the path was asked for (at least :data:`REPLAN_MIN_INTERVAL_S`
+        ago), and the goal is far enough for a new path to differ (twice the widest turn plus the run-in)."""
+        planner = self.config.planner
+        if not planner.current_aware or self._plan_wait is not None:
+            return False
+        if self._now_s - self._path_t_s < REPLAN_MIN_INTERVAL_S:
+            return False
+        now_mps = _current_mps(nav_state)
+        if abs(now_mps - self._path_current_mps) < REPLAN_CURRENT_CHANGE_MPS:
+            return False
+        goal = self.mission.goals[self.status.goal_index]
+        radius_m = current_radius_m(planner.turning_radius_m, self.config.guidance.speed_mps, now_mps)
+        far_m = 2.0 * radius_m + planner.goal_run_in_m
+        return math.hypot(goal.x_m - nav_state.x_m, goal.y_m - nav_state.y_m) > far_m
 
     def _arrived(self, nav_state: nav.NavState) -> None:
         """The estimate crossed the goal line: reached within the arrival radius, else a miss."""
@@ -732,6 +772,12 @@ def nav_inputs(cache: dict[type, Any]) -> nav.NavInputs:
 
 #: The current estimate's 1-sigma (m/s) below which planning counts it (``[planner] current_aware``).
 PLAN_CURRENT_STD_MPS = 0.2
+#: A goal path is planned again when the current estimate has moved this much (m/s) since it was asked for
+#: (the start's estimate is a guess until the vehicle has turned: along its heading only current + water
+#: speed is seen), and not more often than every REPLAN_MIN_INTERVAL_S (s).
+REPLAN_CURRENT_CHANGE_MPS = 0.1
+REPLAN_MIN_INTERVAL_S = 5.0
+
 #: Currents slower than this (m/s) are planned as still water (the estimate's noise is not a current).
 PLAN_CURRENT_MIN_MPS = 0.05
 

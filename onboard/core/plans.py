@@ -43,6 +43,8 @@ class PlanRequest:
     deadline_s: float
     current_mps: float = 0.0
     speed_mps: float = 1.0
+    replan: bool = False  # a path is flown and stays if this one fails (planned again for the current)
+    planned_current_mps: float = 0.0  # the current the flown path was planned for (m/s), when replan
 
 
 #: The widest a current makes the turns: the current counted is at most this fraction of the path speed.
@@ -76,7 +78,13 @@ def compute_plan(request: PlanRequest) -> Path:
         if nominal.current_aware and request.current_mps > 0.0:
             radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
             try:  # wider turns first, with no tighter fallback of their own: the nominal radius comes next
-                return to_goal(replace(nominal, turning_radius_m=radius, min_turning_radius_m=0.0))
+                widened = replace(
+                    nominal,
+                    turning_radius_m=radius,
+                    goal_run_in_m=nominal.goal_run_in_m * radius / nominal.turning_radius_m,
+                    min_turning_radius_m=0.0,
+                )
+                return to_goal(widened)
             except PlannerError:
                 pass  # the wider turns find no way: the nominal radius (and its own fallback)
         return to_goal(nominal)

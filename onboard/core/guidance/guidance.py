@@ -84,7 +84,10 @@ class GuidanceParams:
       error; 0 = the textbook LOS, speed from the controller's speed map alone.
     - ``steer``: ``"heading"`` (the paper) or ``"course"`` (course over ground, module docstring);
       ``crab_max_deg`` (deg): the clamp on the crab angle; ``crab_min_speed_mps`` (m/s): below this speed
-      over ground arrival judges the heading (the DVL's course is noise at rest).
+      over ground arrival judges the heading (the DVL's course is noise at rest); ``min_water_speed_mps``
+      (m/s, 0 = off): steerage way: where a following current would leave less speed through the water
+      than this at ``speed_mps`` over ground, the speed over ground asked for rises until it does not
+      (c_along + sqrt(min^2 - c_across^2)): the fins' force goes with the square of the water speed.
     - ``cross_error_limit_m``: where the heading reference already carries the cross-track error (LOS,
       ILOS, and ``track`` with ``lateral = "path"``), the cross-track error handed to the controller's
       eq. 9 term is limited to +-this (m; 0 = no limit). Far from the path the LOS heading must win: an
@@ -108,6 +111,7 @@ class GuidanceParams:
     steer: Literal["heading", "course"] = "heading"
     crab_min_speed_mps: float = 0.3
     crab_max_deg: float = 40.0
+    min_water_speed_mps: float = 0.0
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
     crab_max_rad: float = field(init=False, repr=False)
@@ -126,6 +130,10 @@ class GuidanceParams:
         require(self.speed_loop_limit_m >= 0.0, "speed_loop_limit_m must be >= 0")
         require(self.crab_min_speed_mps > 0.0, "crab_min_speed_mps must be > 0")
         require(0.0 <= self.crab_max_deg < 90.0, "crab_max_deg must be in [0, 90)")
+        require(
+            0.0 <= self.min_water_speed_mps <= self.speed_mps,
+            f"min_water_speed_mps must be in [0, speed_mps], got {self.min_water_speed_mps}",
+        )
         object.__setattr__(self, "crab_max_rad", math.radians(self.crab_max_deg))
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
@@ -231,6 +239,8 @@ def step(
     los_corr = 0.0
     ilos_int = state.ilos_int_m
     s_ref = state.s_ref_m
+    if params.steer == "course" and params.min_water_speed_mps > 0.0 and nav_ok:
+        speed = _steerage_speed_mps(nav, proj.yaw_rad, speed, params.min_water_speed_mps)
     ref_speed = speed
     if params.reference_accel_mps2 > 0.0:  # the speed asked for starts at rest (every mode)
         ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
@@ -358,3 +368,14 @@ def step(
     )
     debug = GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int, crab_rad=crab)
     return reference, new_state, debug
+
+
+def _steerage_speed_mps(nav: NavState, course_rad: float, speed_mps: float, min_water_mps: float) -> float:
+    """The speed over ground (m/s) to ask for along ``course_rad``: ``speed_mps``, or more where the
+    estimated current follows so much that less than ``min_water_mps`` would be left through the water."""
+    cos_t, sin_t = math.cos(course_rad), math.sin(course_rad)
+    cn, ce = nav.current_north_mps, nav.current_east_mps
+    c_along, c_across = cn * cos_t + ce * sin_t, ce * cos_t - cn * sin_t
+    if abs(c_across) >= min_water_mps:  # the crab alone takes the water speed: no speed-up helps
+        return speed_mps
+    return max(speed_mps, c_along + math.sqrt(min_water_mps**2 - c_across**2))

@@ -430,3 +430,63 @@ def test_a_plan_at_the_tighter_turning_radius_warns_the_operator() -> None:
     assert ap.status.state is S.RUNNING and ap.path is not None
     notes = [n.text for n in ap.take_notes()]
     assert any("goal 0: planned with the tighter turning radius 2.5 m" in t for t in notes), notes
+
+
+def _drifting(t: float, cross_mps: float, u: float = 1.0) -> dict[type, object]:
+    """Sensors of a vehicle heading north at ``u`` m/s through the water, set east by ``cross_mps``."""
+    cache = sensors(t, x=u * t, y=cross_mps * t, u=u)
+    cache[m.DvlVelocity] = m.DvlVelocity(u, cross_mps, 0.0, True, t)
+    return cache
+
+
+def _fly_drifting(ap: Autopilot, t0: float, seconds: float, cross_mps: float, u: float = 1.0) -> float:
+    t = t0
+    for _ in range(round(seconds / DT)):
+        t += DT
+        ap.before_step()
+        run_plans(ap)
+        ap.step(_drifting(t, cross_mps, u), t, DT)
+    return t
+
+
+def test_a_path_is_planned_again_when_the_current_turns_out_other_than_planned_for() -> None:
+    # GIVEN a goal 60 m ahead, planned in still water (the estimate at START)
+    ap = Autopilot(core())
+    assert ap.replace_mission(Mission((Goal(60.0, 10.0, 1.0, math.radians(90.0)),))).accepted
+    ap.request_autostart()
+    t = _fly_drifting(ap, 0.0, 1.0, 0.0, u=0.0)  # at rest in still water: START
+    t = _fly_drifting(ap, t, 2.0, 0.0)
+    assert ap.status.state is S.RUNNING and ap.path is not None
+    first = ap.path
+    ap.take_notes()
+    # WHEN the DVL shows a 0.3 m/s current across the heading for a few seconds
+    _fly_drifting(ap, t, 12.0, 0.3)
+    # THEN the path is planned again for it (wider turns: once on the way, once it is learnt, 5 s apart)
+    # and the operator is told each time
+    notes = [n.text for n in ap.take_notes() if "re-planned" in n.text]
+    assert len(notes) == 2, notes
+    said = [float(n.split("estimated, ")[1].split(" m/s")[0]) for n in notes]
+    assert 0.1 <= said[0] < 0.2 and said[1] >= said[0] + 0.09, notes
+    assert ap.path is not first and ap.status.state is S.RUNNING
+
+
+def test_a_re_plan_that_fails_keeps_the_path_flown() -> None:
+    ap = Autopilot(core())
+    assert ap.replace_mission(Mission((Goal(60.0, 10.0, 1.0, math.radians(90.0)),))).accepted
+    ap.request_autostart()
+    t = _fly_drifting(ap, 0.0, 1.0, 0.0, u=0.0)
+    t = _fly_drifting(ap, t, 2.0, 0.0)
+    first = ap.path
+    for _ in range(200):  # until the estimate asks for a re-plan; the worker's answer: no way
+        t += DT
+        ap.step(_drifting(t, 0.3), t, DT)
+        req = ap.take_plan_request()
+        if req is not None:
+            break
+    assert req is not None and req.replan and req.planned_current_mps == 0.0
+    ap.plan_done(req.request_id, PlannerError("no_path", "blocked"))
+    # THEN it keeps flying the path it has, RUNNING, with no planner error shown
+    assert ap.status.state is S.RUNNING and ap.path is first and ap.planner_error == ""
+    # and it does not ask again at once (the interval between re-plans)
+    ap.step(_drifting(t + DT, 0.3), t + DT, DT)
+    assert ap.take_plan_request() is None

@@ -211,3 +211,35 @@ def test_in_a_current_the_nominal_radius_comes_before_the_tighter_fallback() -> 
     # THEN the note names the nominal radius the fallback replaced, not the current-widened one
     note = compute_plan(req).note
     assert note.startswith("planned with the tighter turning radius 2.5 m: at 2.93 m,"), note
+
+
+def test_the_run_in_widens_with_the_turns_in_a_current() -> None:
+    # GIVEN a goal with a heading, a 5 m run-in at the 3 m radius, planned in a 0.5 m/s current (6 m turns)
+    cfg = PlannerConfig(turning_radius_m=3.0, goal_run_in_m=5.0, current_aware=True)
+    goal = Goal(30.0, -10.0, 1.0, -math.pi / 2)
+    req = PlanRequest(1, "goal", 0, (0.0, 0.0, 0.0), 1.0, goal, (), cfg, 6.0, 0.0, 2.0, 0.5, 1.0)
+    last = compute_plan(req).segments[-1]
+    # THEN the straight before the goal is as much longer as the turns are wider: 10 m
+    assert isinstance(last, StraightSegment) and last.length_m >= 10.0 - 1e-9
+
+
+STEERAGE = dataclasses.replace(COURSE, min_water_speed_mps=0.8)
+
+
+def test_a_following_current_speeds_the_vehicle_up_to_keep_steerage_way() -> None:
+    # GIVEN a 0.5 m/s current along the path north (1 m/s over ground would leave 0.5 m/s through the water)
+    r, _, _ = step(in_current(0.5, 0.0), NORTH, GuidanceState(), STEERAGE, 0.05)
+    # THEN the speed over ground asked for rises to current + 0.8, and 0.8 m/s is left through the water
+    assert r.speed_mps == pytest.approx(1.3) and r.water_speed_mps == pytest.approx(0.8)
+    # with a cross component too: c_along + sqrt(0.8^2 - c_across^2)
+    r, _, _ = step(in_current(0.4, 0.3), NORTH, GuidanceState(), STEERAGE, 0.05)
+    assert r.speed_mps == pytest.approx(0.4 + math.sqrt(0.64 - 0.09))
+    assert r.water_speed_mps == pytest.approx(0.8)
+
+
+def test_steerage_way_changes_nothing_in_still_water_a_head_current_or_when_off() -> None:
+    for cn, ce in ((0.0, 0.0), (-0.4, 0.0), (0.0, 0.9)):  # still; head current; a cross current beyond 0.8
+        assert step(in_current(cn, ce), NORTH, GuidanceState(), STEERAGE, 0.05)[0].speed_mps == 1.0
+    assert step(in_current(0.5, 0.0), NORTH, GuidanceState(), COURSE, 0.05)[0].speed_mps == 1.0
+    with pytest.raises(ValueError, match="min_water_speed_mps"):
+        GuidanceParams(min_water_speed_mps=1.5)
