@@ -83,6 +83,7 @@ def compute_plan(request: PlanRequest) -> Path:
                     turning_radius_m=radius,
                     goal_run_in_m=nominal.goal_run_in_m * radius / nominal.turning_radius_m,
                     min_turning_radius_m=0.0,
+                    min_obstacle_margin_m=None,
                 )
                 return to_goal(widened)
             except PlannerError:

@@ -62,7 +62,9 @@ class GuidanceParams:
 
     - ``mode``: ``"track"`` (paper), ``"los"`` or ``"ilos"``.
     - ``speed_mps``: desired (uniform) speed U along the path, m/s.
-    - ``lookahead_m``: LOS lookahead distance Delta, m.
+    - ``lookahead_m``: LOS lookahead distance Delta, m; ``lookahead_time_s``: with > 0, Fossen's
+      speed-dependent lookahead Delta = max(``lookahead_m``, U * this) with U the speed over ground (s),
+      so a faster vehicle (a following current) converges on the path over the same time, not distance.
     - ``ilos_gain``: ILOS integral gain sigma (dimensionless).
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
     - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
@@ -97,6 +99,7 @@ class GuidanceParams:
     mode: GuidanceMode = "track"
     speed_mps: float = 1.0
     lookahead_m: float = 3.0
+    lookahead_time_s: float = 0.0
     ilos_gain: float = 0.3
     ilos_max_correction_deg: float = 30.0
     arrival_position_tol_m: float = 0.25
@@ -119,6 +122,7 @@ class GuidanceParams:
     def __post_init__(self) -> None:
         require(self.speed_mps > 0.0, f"speed_mps must be > 0, got {self.speed_mps}")
         require(self.lookahead_m > 0.0, f"lookahead_m must be > 0, got {self.lookahead_m}")
+        require(self.lookahead_time_s >= 0.0, f"lookahead_time_s must be >= 0, got {self.lookahead_time_s}")
         require(self.ilos_gain >= 0.0, f"ilos_gain must be >= 0, got {self.ilos_gain}")
         require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")
         require(self.arrival_position_tol_m > 0.0, "arrival_position_tol_m must be > 0")
@@ -280,6 +284,9 @@ def step(
         if nav_ok:
             curvature = sample_extended(path, s_proj + speed * params.curvature_preview_s).curvature_1pm
         delta = params.lookahead_m
+        if params.lookahead_time_s > 0.0 and nav_ok:
+            vn, ve, _ = nav.velocity_ned_mps
+            delta = max(delta, math.hypot(vn, ve) * params.lookahead_time_s)
         sigma = params.ilos_gain if mode == "ilos" else 0.0
         if mode == "ilos" and nav_ok:
             ilos_int += dt_s * speed * delta * e_cross / ((e_cross + sigma * ilos_int) ** 2 + delta**2)

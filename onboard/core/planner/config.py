@@ -61,6 +61,9 @@ class PlannerConfig:
             no way among the obstacles, a start or goal inside an obstacle inflated to the radius), plan
             again with this tighter radius (m; 0 = never; below ``turning_radius_m``): the path then says so
             (``Path.note``, a warning to the operator); if that fails too, the refusal at the planning radius.
+        min_obstacle_margin_m: where the start or the goal is inside an obstacle's margin and the tighter
+            radius does not help, plan once more with it and the obstacle margin reduced to this (m; None =
+            never; below ``obstacle_margin_m``); the path's note says so.
         csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
@@ -75,6 +78,7 @@ class PlannerConfig:
     rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
     goal_run_in_m: float = 0.0
     min_turning_radius_m: float = 0.0
+    min_obstacle_margin_m: float | None = None
     current_aware: bool = False
     csc_only: bool = False
 
@@ -85,6 +89,12 @@ class PlannerConfig:
         _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
         t = self.min_turning_radius_m
         _check(_finite(t) and t >= 0.0, "config", f"min_turning_radius_m must be >= 0 and finite, got {t!r}")
+        mm = self.min_obstacle_margin_m
+        _check(
+            mm is None or (_finite(mm) and mm >= 0.0),
+            "config",
+            f"min_obstacle_margin_m must be >= 0 and finite, got {mm!r}",
+        )
         g = self.goal_run_in_m
         _check(_finite(g) and g >= 0.0, "config", f"goal_run_in_m must be >= 0 and finite, got {g!r}")
         weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
@@ -118,10 +128,23 @@ class PlannerConfig:
         )
 
     @property
-    def tightest(self) -> PlannerConfig:
-        """This configuration at ``min_turning_radius_m``, the tightest a plan may fall back to (itself when
-        there is no fallback): what the mission validator judges a goal's clearance with."""
+    def fallbacks(self) -> tuple[PlannerConfig, ...]:
+        """The configurations a plan falls back to where this one finds no path, in order: the tighter
+        turning radius (``min_turning_radius_m``), then it with the reduced margin
+        (``min_obstacle_margin_m``); empty when neither is set."""
+        out: list[PlannerConfig] = []
+        cfg = self
         tight = self.min_turning_radius_m
         if 0.0 < tight < self.turning_radius_m:
-            return dataclasses.replace(self, turning_radius_m=tight)
-        return self
+            cfg = dataclasses.replace(cfg, turning_radius_m=tight)
+            out.append(cfg)
+        margin = self.min_obstacle_margin_m
+        if margin is not None and margin < self.obstacle_margin_m:
+            out.append(dataclasses.replace(cfg, obstacle_margin_m=margin))
+        return tuple(out)
+
+    @property
+    def tightest(self) -> PlannerConfig:
+        """The last of :attr:`fallbacks`, the tightest a plan may fall back to (itself when there is none):
+        what the mission validator judges a goal's clearance with."""
+        return self.fallbacks[-1] if self.fallbacks else self

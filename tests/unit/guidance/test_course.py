@@ -243,3 +243,16 @@ def test_steerage_way_changes_nothing_in_still_water_a_head_current_or_when_off(
     assert step(in_current(0.5, 0.0), NORTH, GuidanceState(), COURSE, 0.05)[0].speed_mps == 1.0
     with pytest.raises(ValueError, match="min_water_speed_mps"):
         GuidanceParams(min_water_speed_mps=1.5)
+
+
+def test_the_lookahead_grows_with_the_speed_over_ground() -> None:
+    # GIVEN a vehicle 1 m to starboard of a path north, LOS with a 2 m lookahead or 2 s of lookahead time
+    los = GuidanceParams(mode="los", lookahead_m=2.0)
+    timed = dataclasses.replace(los, lookahead_time_s=2.0)
+    for u, delta in ((0.5, 2.0), (1.0, 2.0), (1.5, 3.0)):
+        nav = nav_state_at(5.0, 1.0, 1.0, 0.0, u_mps=u)
+        r_fixed, _, _ = step(nav, NORTH, GuidanceState(), los, 0.05)
+        r_timed, _, _ = step(nav, NORTH, GuidanceState(), timed, 0.05)
+        # THEN the heading towards the path is atan(1 m / Delta), Delta = max(2 m, 2 s x speed)
+        assert r_fixed.yaw_rad == pytest.approx(-math.atan(1.0 / 2.0))
+        assert r_timed.yaw_rad == pytest.approx(-math.atan(1.0 / delta))

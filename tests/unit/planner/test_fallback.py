@@ -41,6 +41,9 @@ def test_when_the_tighter_radius_fails_too_the_refusal_is_the_planning_radius_on
     fence = ((-14.71, -3.3, 1.84), (3.21, 29.73, 2.51), (7.33, 29.34, 3.38), (-20.39, 6.75, 1.65))
     with pytest.raises(PlannerError) as refused:
         plan(start, goal, WITH_FALLBACK, fence)
+    # nor does a smaller margin help a vehicle facing an obstacle (from rest it cannot turn in time)
+    with pytest.raises(PlannerError):
+        plan(start, goal, dataclasses.replace(WITH_FALLBACK, min_obstacle_margin_m=0.3), fence)
     with pytest.raises(PlannerError) as nominal:
         plan(start, goal, NOMINAL, fence)
     assert str(refused.value) == str(nominal.value)
@@ -65,3 +68,21 @@ def test_the_validator_judges_goals_with_the_tightest_radius_the_planner_may_use
     # and the planner plans to it (at the tighter radius)
     path = plan((0.0, 0.0, 0.0), (20.0, 0.0, 0.0), WITH_FALLBACK, [(20.0, 2.7, 0.5)])
     assert path.note
+
+
+def test_a_goal_within_an_obstacles_margin_plans_with_the_reduced_margin_and_says_so() -> None:
+    # GIVEN a goal 0.7 m from the edge of a 4 m obstacle: inside its 1 m margin, outside 0.5 m
+    fence = [(20.0, 4.7, 4.0)]
+    cfg = dataclasses.replace(WITH_FALLBACK, min_obstacle_margin_m=0.5)
+    with pytest.raises(PlannerError) as refused:
+        plan((0.0, 0.0, 0.0), (20.0, 0.0, 0.0), WITH_FALLBACK, fence)
+    assert refused.value.reason == "goal_in_obstacle"
+    path = plan((0.0, 0.0, 0.0), (20.0, 0.0, 0.0), cfg, fence)
+    said = "planned with the tighter turning radius 2.5 m and the obstacle margin reduced to 0.5 m: at 2.93 m"
+    assert path.note.startswith(said + ", goal")
+    # the validator judges the goal with the same margin
+    mission = Mission((Goal(20.0, 0.0, 1.0, 0.0),), (Obstacle(20.0, 4.7, 4.0),))
+    assert check_mission(mission, CoreConfig(planner=WITH_FALLBACK)).first is not None
+    assert check_mission(mission, CoreConfig(planner=cfg)).first is None
+    with pytest.raises(PlannerError, match="min_obstacle_margin_m"):
+        PlannerConfig(min_obstacle_margin_m=-1.0)
