@@ -32,12 +32,12 @@ optional first-order low-pass ``derivative_tau_s``; ``rates`` = the same for e_x
 de_psi/dt = r_d - r, de_theta/dt = q_d - q and de_z/dt = depth_rate_d - depth_rate from the measured rates
 (no differentiation noise). The first step and dt_s = 0 give derivative 0 (first step) or hold the last one.
 
-Profile ``improved`` adds: the propeller feed-forward rps_ff = speed_map(U_d) (linear interpolation in the
-``speed_map_mps`` / ``speed_map_rps`` table; PLACEHOLDER 25 rps at 1.6 m/s until the simulator's table is
-copied in), the yaw-rate feed-forward on arcs dR_ff = -rudder_per_curvature_radm * r_d / U_d (= -K *
-curvature: the steady-turn rudder; PLACEHOLDER K until the simulator's steady-turn table is copied in), and
-roll damping with the split stern: roll differential = roll_kp * phi + roll_kd * p (a positive differential
-rolls to port, see :mod:`onboard.core.control.actuators`).
+Profile ``improved`` adds: the propeller feed-forward rps_ff = speed_map(U_d) (linear interpolation in
+``[control]``'s ``speed_map_mps`` / ``speed_map_rps`` table, the vehicle's; a ``paper`` profile with
+``feedforward = true`` takes it too, and no curvature rudder), the yaw-rate feed-forward on arcs
+dR_ff = -rudder_per_curvature_radm * r_d / U_d (= -K * curvature: the steady-turn rudder), and roll damping
+with the split stern: roll differential = roll_kp * phi + roll_kd * p (a positive differential rolls to
+port, see :mod:`onboard.core.control.actuators`).
 
 Pure: ``step(nav, reference, state, params, dt_s) -> (command, new_state, debug)``. Saturation and rate limits
 happen in :func:`onboard.core.control.actuators.saturate` only. Any NaN -> neutral command with ``NAN_INPUT``.
@@ -67,8 +67,8 @@ class PdGains:
     """The 16 gains of eqs. 8-10 (named as in the paper) and the extras of the ``improved`` profile.
 
     Units: see the module docstring (errors m / rad, outputs rps / rad). Feed-forward:
-    ``feedforward`` turns on the propeller speed map and the curvature rudder; ``speed_map_mps`` ->
-    ``speed_map_rps`` (strictly increasing speeds, same length); ``rudder_per_curvature_radm`` (rad * m);
+    ``feedforward`` turns on the propeller speed map (``[control]``'s, :class:`ControlParams`) and the
+    curvature rudder ``rudder_per_curvature_radm`` (rad * m);
     ``roll_kp`` (rad/rad), ``roll_kd`` (rad/(rad/s)); ``derivative`` and ``derivative_tau_s`` (s).
     """
 
@@ -89,8 +89,6 @@ class PdGains:
     Kp8: float = 0.0
     KD8: float = 0.0
     feedforward: bool = False
-    speed_map_mps: tuple[float, ...] = (0.0, 1.6)
-    speed_map_rps: tuple[float, ...] = (0.0, 25.0)
     rudder_per_curvature_radm: float = 0.0
     roll_kp: float = 0.0
     roll_kd: float = 0.0
@@ -112,25 +110,8 @@ class PdGains:
     schedule_max_scale: float = 2.5
 
     def __post_init__(self) -> None:
-        m, r = self.speed_map_mps, self.speed_map_rps
-        require(len(m) >= 2 and len(m) == len(r), "speed map needs >= 2 rows of equal length")
-        require(all(b > a for a, b in itertools.pairwise(m)), "speed_map_mps must be strictly increasing")
-        require(all(x >= 0.0 for x in r), "speed_map_rps must be >= 0")
         require(self.derivative_tau_s >= 0.0, "derivative_tau_s must be >= 0")
         require(self.rudder_per_curvature_radm >= 0.0, "rudder_per_curvature_radm must be >= 0")
-
-    def speed_to_rps(self, speed_mps: float) -> float:
-        """Propeller feed-forward: linear interpolation of the speed map, clamped at its ends (rev/s)."""
-        m, r = self.speed_map_mps, self.speed_map_rps
-        if speed_mps <= m[0]:
-            return r[0]
-        if speed_mps >= m[-1]:
-            # Extrapolate along the last row's slope: the map's end is not a speed limit (saturate is).
-            slope = (r[-1] - r[-2]) / (m[-1] - m[-2])
-            return r[-1] + slope * (speed_mps - m[-1])
-        i = bisect.bisect_right(m, speed_mps) - 1
-        f = (speed_mps - m[i]) / (m[i + 1] - m[i])
-        return r[i] + f * (r[i + 1] - r[i])
 
 
 @dataclass(frozen=True)
@@ -168,9 +149,6 @@ class ImprovedGains(PdGains):
     Kp8: float = -1.0
     KD8: float = -0.5
     feedforward: bool = True
-    # PLACEHOLDER (linear, ~1.6 m/s at 25 rps): replace with the simulator's steady-speed table.
-    speed_map_mps: tuple[float, ...] = (0.0, 1.6)
-    speed_map_rps: tuple[float, ...] = (0.0, 25.0)
     # PLACEHOLDER: steady-turn rudder per curvature, rad*m (e.g. 2/3 of the rudder limit * r_min).
     rudder_per_curvature_radm: float = 1.0
     roll_kp: float = 0.3
@@ -196,6 +174,30 @@ class ControlParams:
     paper: PaperGains = field(default_factory=PaperGains)
     improved: ImprovedGains = field(default_factory=ImprovedGains)
     limits: ActuatorLimits = field(default_factory=ActuatorLimits)
+    # The vehicle's speed map (steady speed through the water against propeller speed), for the propeller
+    # feed-forward of either profile (``feedforward``). PLACEHOLDER (linear, ~1.6 m/s at 25 rps): the
+    # packaged onboard.toml holds the simulator's table.
+    speed_map_mps: tuple[float, ...] = (0.0, 1.6)
+    speed_map_rps: tuple[float, ...] = (0.0, 25.0)
+
+    def __post_init__(self) -> None:
+        m, r = self.speed_map_mps, self.speed_map_rps
+        require(len(m) >= 2 and len(m) == len(r), "speed map needs >= 2 rows of equal length")
+        require(all(b > a for a, b in itertools.pairwise(m)), "speed_map_mps must be strictly increasing")
+        require(all(x >= 0.0 for x in r), "speed_map_rps must be >= 0")
+
+    def speed_to_rps(self, speed_mps: float) -> float:
+        """Propeller feed-forward: linear interpolation of the speed map, clamped at its ends (rev/s)."""
+        m, r = self.speed_map_mps, self.speed_map_rps
+        if speed_mps <= m[0]:
+            return r[0]
+        if speed_mps >= m[-1]:
+            # Extrapolate along the last row's slope: the map's end is not a speed limit (saturate is).
+            slope = (r[-1] - r[-2]) / (m[-1] - m[-2])
+            return r[-1] + slope * (speed_mps - m[-1])
+        i = bisect.bisect_right(m, speed_mps) - 1
+        f = (speed_mps - m[i]) / (m[i + 1] - m[i])
+        return r[i] + f * (r[i + 1] - r[i])
 
     @property
     def gains(self) -> PdGains:
@@ -325,7 +327,7 @@ def step(
         # the curvature relative to the water the yaw rate is (a turn flown slower through the water needs
         # more rudder for the same rate).
         speed = reference.water_speed_mps
-        rps_ff = g.speed_to_rps(speed)
+        rps_ff = params.speed_to_rps(speed)
         kappa = reference.yaw_rate_radps / speed if speed > 1e-6 else reference.curvature_1pm
         rudder_ff = -g.rudder_per_curvature_radm * kappa  # right turn (kappa > 0) = negative rudder
     roll_diff = g.roll_kp * nav.roll_rad + g.roll_kd * nav.p_radps if (g.roll_kp or g.roll_kd) else 0.0

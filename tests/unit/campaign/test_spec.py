@@ -204,7 +204,7 @@ def test_onboard_set_syntax_is_the_onboards() -> None:
             {
                 "guidance.mode": "los",
                 "control.improved.Kp5": -0.3,
-                "control.improved.speed_map_mps": [0.0, 1.5, 2.0],
+                "control.speed_map_mps": [0.0, 1.5, 2.0],
                 "mission.max_tries": 2,
             }
         ]
@@ -213,7 +213,7 @@ def test_onboard_set_syntax_is_the_onboards() -> None:
     assert run.onboard_sets() == [
         'guidance.mode="los"',
         "control.improved.Kp5=-0.3",
-        "control.improved.speed_map_mps=[0.0, 1.5, 2.0]",
+        "control.speed_map_mps=[0.0, 1.5, 2.0]",
         "mission.max_tries=2",
     ]
     assert run.onboard_label == "o0"
@@ -234,7 +234,7 @@ def test_round_trip(example_listed: CampaignSpec) -> None:
     data["missions"][0]["goals"].append({"x_m": 3, "y_m": 4, "depth_m": 2})
     data["missions"][0]["obstacles"] = [{"x_m": 0, "y_m": 3, "radius_m": 1.5}]
     data["sweep"] = {
-        "onboard": [{"control.improved.speed_map_mps": [0.0, 1.5, 2.0], "guidance.mode": "los"}],
+        "onboard": [{"control.speed_map_mps": [0.0, 1.5, 2.0], "guidance.mode": "los"}],
         "vehicle": [{"set": {"fins.area_m2": 0.035}, "scale": {"fin_lift": 0.9}}],
         "current": [[0.25, -45]],
     }

@@ -109,7 +109,7 @@ def test_config_value_reads_the_file_and_the_defaults(config: Any) -> None:
         ("mission.max_tries", "an integer"),
         ("guidance.mode", "not a real number"),
         ("control.improved.feedforward", "not a real number"),
-        ("control.improved.speed_map_mps", "not a real number"),
+        ("control.speed_map_mps", "not a real number"),
         ("Kp5", "dotted key"),
         ("control..Kp5", "dotted key"),
     ],

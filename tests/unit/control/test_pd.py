@@ -181,7 +181,7 @@ def test_improved_feedforward_speed_map_and_curvature() -> None:
 
 @pytest.mark.parametrize(("speed", "rps"), [(0.0, 0.0), (0.8, 12.5), (1.6, 25.0), (-1.0, 0.0), (3.2, 50.0)])
 def test_speed_map_interpolates(speed: float, rps: float) -> None:
-    assert ImprovedGains().speed_to_rps(speed) == pytest.approx(rps)
+    assert ControlParams().speed_to_rps(speed) == pytest.approx(rps)
 
 
 def test_roll_damping_sign() -> None:
@@ -196,7 +196,7 @@ def test_roll_damping_sign() -> None:
 
 @pytest.mark.parametrize(
     "table",
-    [{"profile": "other"}, {"paper": {"Kp9": 1.0}}, {"improved": {"speed_map_mps": [0.0]}},
+    [{"profile": "other"}, {"paper": {"Kp9": 1.0}}, {"speed_map_mps": [0.0]},
      {"limits": {"rudder_limit_deg": -1.0}}, {"improved": {"derivative": "magic"}}],
 )  # fmt: skip
 def test_bad_control_config_is_a_config_error(table: dict[str, object]) -> None:

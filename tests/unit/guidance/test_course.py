@@ -67,9 +67,8 @@ def test_the_controller_feeds_forward_the_water_speed() -> None:
     head, _, _ = step(in_current(-0.5, 0.0), NORTH, GuidanceState(), COURSE, 0.05)
     _, _, d_still = control_step(in_current(0.0, 0.0), still, ControllerState(), params, 0.05)
     _, _, d_head = control_step(in_current(-0.5, 0.0), head, ControllerState(), params, 0.05)
-    g = params.gains
-    assert d_still.rps_ff == pytest.approx(g.speed_to_rps(still.speed_mps))
-    assert d_head.rps_ff == pytest.approx(g.speed_to_rps(1.5 * still.speed_mps))
+    assert d_still.rps_ff == pytest.approx(params.speed_to_rps(still.speed_mps))
+    assert d_head.rps_ff == pytest.approx(params.speed_to_rps(1.5 * still.speed_mps))
 
 
 def test_the_run_in_ends_the_path_with_a_straight_along_the_goal_heading() -> None:
