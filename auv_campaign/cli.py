@@ -61,7 +61,11 @@ def campaign_parser() -> argparse.ArgumentParser:
     _executor_args(p)
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--only", metavar="RUN_ID", help="re-fly this one run here and print its row")
-    p.add_argument("--plot", action="store_true", help="with --only: draw it (OUT/runs/RUN_ID/track.png)")
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        help="with --only: draw it (OUT/runs/RUN_ID/track.png; errors.png: the paper's e_x, e_y by time)",
+    )
     return p
 
 
@@ -116,7 +120,7 @@ def campaign_main(argv: list[str]) -> int:
 
 def _only(prog: str, spec: Any, out: Path, run_id: str, plot: bool) -> int:
     from auv_campaign.execute import save_run
-    from auv_campaign.report import save_track_png
+    from auv_campaign.report import save_errors_png, save_track_png
     from auv_campaign.runner import fly
     from hil_sim.bench_program import TRUTH_COLUMNS
 
@@ -136,6 +140,8 @@ def _only(prog: str, spec: Any, out: Path, run_id: str, plot: bool) -> int:
     result = dict(output.row, truth_log=str(folder / "truth.csv"))
     if plot:
         result["figure"] = str(save_track_png(record, folder / "track.png"))
+        errors = save_errors_png(output.truth, output.reference, folder / "errors.png", run_id)
+        result["errors_figure"] = str(errors)
     print(json.dumps(result))
     return EXIT_RUN_ERROR if output.row.get("error") else EXIT_OK
 

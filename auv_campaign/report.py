@@ -397,6 +397,63 @@ def save_track_png(run: Run, path: Path, dpi: int = 110) -> Path:
     return path
 
 
+def paper_errors(
+    truth: Sequence[Sequence[Any]], reference: Sequence[tuple[float, float, float, float]]
+) -> tuple[list[float], list[float], list[float]]:
+    """The paper's errors (eq. 4 in the path frame: Figs. 8, 10) of one run: (t_s, e_x, e_y), e = the
+    onboard's reference point - the simulator's truth at the same time, resolved along (x) and across (y,
+    + = the reference to starboard of the vehicle) the reference's heading. ``truth``: rows of
+    ``TRUTH_COLUMNS`` (t_s, x_m, y_m first), in time order; ``reference``: (t_s, x_m, y_m, yaw_rad) per
+    tick."""
+    import bisect
+
+    times = [float(r[0]) for r in truth]
+    t_s: list[float] = []
+    e_x: list[float] = []
+    e_y: list[float] = []
+    for t, xr, yr, yaw in reference if times else ():
+        row = truth[min(bisect.bisect_left(times, t), len(times) - 1)]
+        dx, dy = xr - float(row[1]), yr - float(row[2])
+        t_s.append(t)
+        e_x.append(dx * math.cos(yaw) + dy * math.sin(yaw))
+        e_y.append(-dx * math.sin(yaw) + dy * math.cos(yaw))
+    return t_s, e_x, e_y
+
+
+def save_errors_png(
+    truth: Sequence[Sequence[Any]],
+    reference: Sequence[tuple[float, float, float, float]],
+    path: Path,
+    title: str,
+    dpi: int = 110,
+) -> Path:
+    """:func:`paper_errors` against time as a PNG, e_x above e_y, each with its peak and last value
+    (``auv-hil campaign --only RUN_ID --plot``)."""
+    t_s, e_x, e_y = paper_errors(truth, reference)
+    fig = new_figure(6.0, 4.0)
+    axes = fig.subplots(2, 1, sharex=True)
+    fig.suptitle(f"{title}: reference - truth, path frame", fontsize=9)
+    for ax, values, name in ((axes[0], e_x, "e_x along (m)"), (axes[1], e_y, "e_y across (m)")):
+        if not values:
+            _no_data(ax)
+            continue
+        t0 = t_s[0]
+        ax.plot([t - t0 for t in t_s], values, color="tab:blue", linewidth=1.0)
+        ax.axhline(0.0, color="grey", linewidth=0.6)
+        ax.set_ylabel(name, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+        peak = max(range(len(values)), key=lambda i: abs(values[i]))
+        ax.annotate(
+            f"peak {values[peak]:.2f} m at {t_s[peak] - t0:.1f} s, last {values[-1]:.2f} m",
+            xy=(0.99, 0.95), xycoords="axes fraction", ha="right", va="top", fontsize=7,
+        )  # fmt: skip
+    axes[1].set_xlabel("time since the path began (s)", fontsize=8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    return path
+
+
 def track_figure(run: Run | None, run_id: str, size_in: float = 3.4) -> Figure:
     """One run seen from above, NED: north (x) up, east (y) right. The truth track (blue) over the nominal
     path (red dashed), obstacles (grey circles), start (green triangle) and goals (black x, an arrow for the

@@ -85,6 +85,8 @@ class RunOutput:
     track: dict[str, list[float]] = field(default_factory=dict)
     path: list[list[float]] = field(default_factory=list)
     truth: list[list[Any]] = field(default_factory=list)  # every truth row (``TRUTH_COLUMNS``); kept on ask
+    # with the truth: the onboard's guidance reference each tick, (t_s, x_m, y_m, yaw_rad) of the point
+    reference: list[tuple[float, float, float, float]] = field(default_factory=list)
 
     def to_json(self, spec: RunSpec) -> dict[str, Any]:
         return {"run_id": spec.run_id, "spec": spec.to_dict(), "row": self.row, "track": self.track,
@@ -220,10 +222,13 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         autopilot.request_autostart()
     truth = _Rows()
     result = BenchResult()
+    reference: list[tuple[float, float, float, float]] = []
     if not refused:
         if timings is not None:
             _time_calls(autopilot, "step", timings, "onboard_core_s")
             _time_calls(bench, "period", timings, "simulator_s")
+        if keep_truth:
+            _record_reference(autopilot, reference)
         t_drive = time.perf_counter()
         _drive(bench, autopilot, cfg, hil, truth, result)
         if timings is not None:
@@ -253,7 +258,21 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     row["wall_time_s"] = round(time.perf_counter() - t_wall, 3)
     track = _track(truth.rows)
     path = [[round(p[0], 3), round(p[1], 3)] for p in samples[:: max(1, round(0.25 / PATH_STEP_M))]]
-    return RunOutput(row, track, path, truth.rows if keep_truth else [])
+    return RunOutput(row, track, path, truth.rows if keep_truth else [], reference)
+
+
+def _record_reference(autopilot: Autopilot, out: list[tuple[float, float, float, float]]) -> None:
+    """Keep the guidance reference point of every tick of ``autopilot`` (this instance) in ``out``."""
+    inner = autopilot.step
+
+    def step(cache: dict[type, Any], now_s: float, dt_s: float) -> Any:
+        result = inner(cache, now_s, dt_s)
+        r = result.reference
+        if r is not None:
+            out.append((now_s, r.x_m, r.y_m, r.yaw_rad))
+        return result
+
+    autopilot.step = step  # type: ignore[method-assign]
 
 
 def _drive(

@@ -21,8 +21,9 @@ from typing import Any
 import pytest
 import yaml
 
+from auv_campaign.report import paper_errors
 from auv_campaign.runner import fly
-from auv_campaign.spec import parse_spec
+from auv_campaign.spec import load_spec, parse_spec
 from hil_sim.scenario import SCENARIOS, RunOptions, run_scenario
 
 pytestmark = pytest.mark.slow
@@ -189,6 +190,7 @@ def test_only_refies_one_run_with_its_truth_and_figure(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     again = json.loads(proc.stdout)
     assert Path(again["figure"]).stat().st_size > 10_000
+    assert Path(again["errors_figure"]).stat().st_size > 10_000  # the paper's e_x, e_y against time
     assert Path(again["truth_log"]).exists()
     assert math.isclose(
         again["final_position_error_m"], float(before["final_position_error_m"]), rel_tol=1e-5
@@ -279,3 +281,19 @@ def test_an_out_that_is_a_file_is_one_line_before_any_run(tmp_path: Path) -> Non
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and "--out" in lines[0] and "Traceback" not in proc.stderr
     assert taken.read_text() == "not a directory"
+
+
+def test_the_papers_law_completes_its_straight_and_turn_with_the_shape_of_figs_8_and_10() -> None:
+    # GIVEN the paper's law (paper gains, uniform 1 m/s reference from rest, errors at the reference), with
+    # the propeller held at the reference speed (hil_sim/campaigns/paper_law.yaml, onboard o1)
+    spec = load_spec(Path(__file__).parents[2] / "hil_sim" / "campaigns" / "paper_law.yaml")
+    runs = {r.run_id: r for r in spec.runs}
+    for mission in ("straight", "turn"):
+        out = fly(runs[f"{mission}_s0_c0d0_basin_o1_nominal"], keep_truth=True)
+        # THEN it completes, near the goal (the paper: 0.13 m and 0.2 m)
+        assert out.row["final_state"] == "COMPLETE" and out.row["final_position_error_m"] <= 0.3, out.row
+        # and the along-track error grows at the start (the vehicle starts at rest), then shrinks
+        t_s, e_x, _ = paper_errors(out.truth, out.reference)
+        peak = max(range(len(e_x)), key=lambda i: e_x[i] if t_s[i] - t_s[0] < 20.0 else -math.inf)
+        assert e_x[peak] > 2.0 and 3.0 < t_s[peak] - t_s[0] < 20.0
+        assert min(e_x[peak:]) < 0.75 * e_x[peak]

@@ -73,6 +73,9 @@ class GuidanceParams:
       ``speed_mps`` (0 = the paper's uniform speed from the first instant, which a vehicle starting at rest
       cannot follow: the along-track error grows at the start, paper Fig. 10); in ``los`` / ``ilos`` it is
       the speed the feed-forward and the speed loop ask for.
+    - ``reference_stops_at_end``: ``track`` only: the moving reference waits at the path's end (the goal)
+      instead of running on along its extension (the paper's uniform reference), so a vehicle that lags is
+      drawn to the goal, not past it.
     - ``lateral``: ``track`` only: ``"reference"`` (the paper: cross-track and yaw errors at the moving
       reference point) or ``"path"`` (at the vehicle's projection on the path, with a LOS heading
       correction over ``lookahead_m``; the reference point then only sets the along-track error). When the
@@ -115,6 +118,7 @@ class GuidanceParams:
     crab_min_speed_mps: float = 0.3
     crab_max_deg: float = 40.0
     min_water_speed_mps: float = 0.0
+    reference_stops_at_end: bool = False
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
     crab_max_rad: float = field(init=False, repr=False)
@@ -250,6 +254,8 @@ def step(
         ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
     if mode == "track":
         s_ref += ref_speed * dt_s
+        if params.reference_stops_at_end:
+            s_ref = min(s_ref, length)
         ref = sample_extended(path, s_ref)
     else:
         s_ref = s_proj

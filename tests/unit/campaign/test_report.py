@@ -408,3 +408,15 @@ def test_report_says_what_the_labels_stand_for(tmp_path: Path, runs: list[dict[s
     page = (tmp_path / "report.html").read_text()
     assert "What the labels stand for" in page
     assert "scale fin_lift=0.7 &lt;weak fins&gt;" in page
+
+
+def test_paper_errors_are_reference_minus_truth_in_the_path_frame() -> None:
+    # GIVEN truth rows (t, x, y) and the reference heading east (yaw 90 deg), 1 m ahead, 0.5 m north of it
+    truth = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.1], [0.2, 0.0, 0.2]]
+    east = math.pi / 2
+    reference = [(0.1, 0.5, 1.1, east), (0.2, 0.5, 1.2, east)]
+    t_s, e_x, e_y = report.paper_errors(truth, reference)
+    # THEN e_x = 1 m along, e_y = -0.5 m (the reference to port of a vehicle heading east)
+    assert t_s == [0.1, 0.2]
+    assert e_x == pytest.approx([1.0, 1.0]) and e_y == pytest.approx([-0.5, -0.5])
+    assert report.paper_errors([], reference) == ([], [], [])

@@ -246,3 +246,20 @@ def test_paper_reference_lateral_is_not_limited() -> None:
     params = GuidanceParams(mode="track", lateral="reference", cross_error_limit_m=0.5)
     r, _, _ = step(nav_state_at(0.0, -4.0, 1.0, 0.0), straight(0.0), GuidanceState(), params, DT)
     assert r.e_cross_m == pytest.approx(4.0)
+
+
+def test_the_track_reference_can_wait_at_the_goal() -> None:
+    # GIVEN a vehicle that does not move and a reference that would pass the path's end after a minute
+    path = s_then_right_arc()
+    nav = nav_state_at(0.0, 0.0, 1.0, 0.0)
+    runs_on = GuidanceParams(mode="track", speed_mps=1.2)
+    waits = GuidanceParams(mode="track", speed_mps=1.2, reference_stops_at_end=True)
+    s_on, s_wait = GuidanceState(), GuidanceState()
+    for _ in range(1200):
+        r_on, s_on, _ = step(nav, path, s_on, runs_on, DT)
+        r_wait, s_wait, _ = step(nav, path, s_wait, waits, DT)
+    # THEN the paper's reference runs on along the extension, the other waits at the goal
+    assert r_on.s_ref_m == pytest.approx(72.0) and path.length_m < 72.0
+    assert r_wait.s_ref_m == pytest.approx(path.length_m)
+    end = path.sample(path.length_m)
+    assert (r_wait.x_m, r_wait.y_m) == pytest.approx((end.x_m, end.y_m))
