@@ -515,7 +515,11 @@ class Autopilot:
             log.warning("%s", text)
             self._note(c.Severity.WARNING, text)
         self.path, self.path_goal_index, self.path_kind = result, req.goal_index, req.kind
-        self.guidance_state = guidance.GuidanceState()
+        # A new path starts its reference at the vehicle's speed (a re-plan or the next goal under way),
+        # not from rest: the ramp then would ask a moving vehicle to brake.
+        n, top = self.last_nav, self.config.guidance.speed_mps
+        moving = min(max(n.u_mps, 0.0), top) if n is not None and math.isfinite(n.u_mps) else 0.0
+        self.guidance_state = guidance.GuidanceState(ref_speed_mps=moving)
         self.controller_state = control.ControllerState(command=self.controller_state.command)
         log.info(
             "planned %s %d: %s, %.2f m, %d virtual goals",

@@ -468,6 +468,8 @@ def test_a_path_is_planned_again_when_the_current_turns_out_other_than_planned_f
     said = [float(n.split("estimated, ")[1].split(" m/s")[0]) for n in notes]
     assert 0.1 <= said[0] < 0.2 and said[1] >= said[0] + 0.09, notes
     assert ap.path is not first and ap.status.state is S.RUNNING
+    # and the new path's reference starts at the vehicle's 1 m/s, not from rest
+    assert ap.guidance_state.ref_speed_mps == 1.0
 
 
 def test_a_re_plan_that_fails_keeps_the_path_flown() -> None:
