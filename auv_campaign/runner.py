@@ -57,6 +57,7 @@ from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.validate import check_mission
 from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
+from onboard.core.planner.path import Path
 from onboard.core.planner.planner import plan
 from onboard.protocol import messages as m
 from onboard.protocol.codec import Codec
@@ -79,7 +80,8 @@ _channels = itertools.count()
 
 @dataclass
 class RunOutput:
-    """What a run gives back: the row (``results.COLUMNS``), the decimated track and the nominal path."""
+    """What a run gives back: the row (``results.COLUMNS``), the decimated track and the measured path (per
+    leg the first path the onboard flew, else the nominal one)."""
 
     row: dict[str, Any]
     track: dict[str, list[float]] = field(default_factory=dict)
@@ -139,15 +141,13 @@ def mission_of(spec: RunSpec) -> Mission:
     return Mission(goals, tuple(Obstacle(x, y, r) for x, y, r in mis.obstacles))
 
 
-def nominal_path(spec: RunSpec, cfg: OnboardConfig) -> tuple[list[list[float]], float]:
-    """The nominal path ``[[x_m, y_m, yaw_deg], ...]`` and its length (m): the onboard planner from the start
-    pose through every goal in order (leg i starts at goal i-1's pose), with the run's configuration.
-    Raises PlannerError when a leg cannot be planned."""
+def nominal_legs(spec: RunSpec, cfg: OnboardConfig) -> list[Path]:
+    """The onboard planner's paths from the spec's start pose through every goal in order (leg i starts at
+    goal i-1's pose), with the run's configuration. Raises PlannerError when a leg cannot be planned."""
     mis = spec.mission
     x, y, depth, yaw_deg = mis.start
     pose = (x, y, math.radians(yaw_deg))
-    samples: list[list[float]] = []
-    length = 0.0
+    legs: list[Path] = []
     obstacles = tuple(Obstacle(ox, oy, r) for ox, oy, r in mis.obstacles)
     for gx, gy, gdepth, gyaw in mis.goals:
         path = plan(
@@ -158,13 +158,21 @@ def nominal_path(spec: RunSpec, cfg: OnboardConfig) -> tuple[list[list[float]], 
             start_depth_m=depth,
             goal_depth_m=gdepth,
         )
+        legs.append(path)
+        end = path.sample(path.length_m)
+        pose, depth = (gx, gy, end.yaw_rad), gdepth
+    return legs
+
+
+def path_samples(legs: list[Path]) -> list[list[float]]:
+    """``[[x_m, y_m, yaw_deg], ...]`` along the legs in order, every :data:`PATH_STEP_M`."""
+    samples: list[list[float]] = []
+    for path in legs:
         n = max(1, math.ceil(path.length_m / PATH_STEP_M))
         for i in range(0 if not samples else 1, n + 1):
             p = path.sample(min(i * PATH_STEP_M, path.length_m))
             samples.append([p.x_m, p.y_m, math.degrees(p.yaw_rad)])
-        length += path.length_m
-        pose, depth = (gx, gy, math.radians(samples[-1][2])), gdepth
-    return samples, length
+    return samples
 
 
 def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float) -> float:
@@ -180,7 +188,8 @@ def vehicle_of(spec: RunSpec) -> VehicleParams:
 
 
 def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | None = None) -> RunOutput:
-    """Fly one run (see the module docstring) and measure it against the nominal path.
+    """Fly one run (see the module docstring) and measure it against the path the onboard planned (per leg
+    its first; the nominal leg where it planned none; the nominal path sets the time limit).
 
     ``timings``: if given, the wall seconds (perf counter) spent in the onboard core's step
     (``onboard_core_s``), the simulator's period (``simulator_s``) and the whole lock-step drive
@@ -191,12 +200,14 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     mission = mission_of(spec)
     start = spec.mission.start
     try:
-        samples, length = nominal_path(spec, cfg)
+        legs = nominal_legs(spec, cfg)
     except PlannerError:
-        samples, length = (
-            [],
-            math.hypot(spec.mission.goals[-1][0] - start[0], spec.mission.goals[-1][1] - start[1]),
-        )
+        legs = []
+    length = (
+        sum(p.length_m for p in legs)
+        if legs
+        else math.hypot(spec.mission.goals[-1][0] - start[0], spec.mission.goals[-1][1] - start[1])
+    )
     limit = time_limit_s(spec, length, cfg.guidance.speed_mps)
     hil = HilConfig(
         bench=BenchConfig(
@@ -223,10 +234,12 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     truth = _Rows()
     result = BenchResult()
     reference: list[tuple[float, float, float, float]] = []
+    first_plans: dict[int, Path] = {}
     if not refused:
         if timings is not None:
             _time_calls(autopilot, "step", timings, "onboard_core_s")
             _time_calls(bench, "period", timings, "simulator_s")
+        _record_first_plans(autopilot, first_plans)
         if keep_truth:
             _record_reference(autopilot, reference)
         t_drive = time.perf_counter()
@@ -242,6 +255,9 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
     elif not refused and not result.started:
         reason = f"never under way: {status.reason}"
+    # Measured against the path the onboard planned first for each leg (it plans from where the vehicle
+    # is, which may pick another word than the ideal start), the nominal leg where it planned none.
+    samples = path_samples([first_plans.get(i, leg) for i, leg in enumerate(legs)]) if legs else []
     row = run_row(
         spec,
         truth.rows,
@@ -259,6 +275,27 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     track = _track(truth.rows)
     path = [[round(p[0], 3), round(p[1], 3)] for p in samples[:: max(1, round(0.25 / PATH_STEP_M))]]
     return RunOutput(row, track, path, truth.rows if keep_truth else [], reference)
+
+
+def _record_first_plans(autopilot: Autopilot, out: dict[int, Path]) -> None:
+    """Keep, per goal index, the first goal path ``autopilot`` (this instance) took to fly."""
+    take, done = autopilot.take_plan_request, autopilot.plan_done
+    asked: dict[int, Any] = {}
+
+    def take_plan_request() -> Any:
+        req = take()
+        if req is not None:
+            asked[req.request_id] = req
+        return req
+
+    def plan_done(request_id: int, result: Any) -> None:
+        req = asked.pop(request_id, None)
+        done(request_id, result)
+        if req is not None and req.kind == "goal" and autopilot.path is result:  # taken, not stale
+            out.setdefault(req.goal_index, result)
+
+    autopilot.take_plan_request = take_plan_request  # type: ignore[method-assign]
+    autopilot.plan_done = plan_done  # type: ignore[method-assign]
 
 
 def _record_reference(autopilot: Autopilot, out: list[tuple[float, float, float, float]]) -> None:

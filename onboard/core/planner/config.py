@@ -53,6 +53,10 @@ class PlannerConfig:
         goal_run_in_m: a goal with a heading is approached along a straight of this length ending at it
             (m, >= 0; 0 = the paper: the last arc ends at the goal), so the errors (and a crab into a
             current) settle before the goal; where the run-in's start is blocked or unreachable, direct.
+        start_run_up_m: the path begins with a straight of this length along the start heading (m, >= 0;
+            0 = the paper: the first arc starts at once), so a vehicle that starts at rest gains steerage
+            before it turns; where the straight is blocked, or the goal is within it and two turning radii,
+            the path turns from the start.
         current_aware: plan, in a current of speed c (the vehicle's estimate), with the turning radius
             widened to r * U / (U - c) at the path speed U: the turn rate a fin gives is proportional to the
             speed through the water, which a following current lowers while the speed over ground is held.
@@ -77,6 +81,7 @@ class PlannerConfig:
     rudder_map_radius_m: tuple[float, ...] = _DEFAULT_MAP_RADIUS_M
     rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
     goal_run_in_m: float = 0.0
+    start_run_up_m: float = 0.0
     min_turning_radius_m: float = 0.0
     min_obstacle_margin_m: float | None = None
     current_aware: bool = False
@@ -97,6 +102,8 @@ class PlannerConfig:
         )
         g = self.goal_run_in_m
         _check(_finite(g) and g >= 0.0, "config", f"goal_run_in_m must be >= 0 and finite, got {g!r}")
+        u = self.start_run_up_m
+        _check(_finite(u) and u >= 0.0, "config", f"start_run_up_m must be >= 0 and finite, got {u!r}")
         weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
         for name, w in zip(("weight_distance", "weight_yaw", "weight_rudder"), weights, strict=True):
             _check(_finite(w) and w >= 0.0, "config", f"{name} must be >= 0 and finite, got {w!r}")

@@ -207,6 +207,28 @@ def _diagnose(
 def _best(
     start: Pose, goal: GoalPose, cfg: PlannerConfig, inflated: Sequence[tuple[float, float, float]]
 ) -> tuple[str, tuple[Segment, ...], float]:
+    """(word, segments, cost) of the best collision-free path, starting with a straight of
+    ``start_run_up_m`` along the start heading where it is free and the goal farther than it and two turning
+    radii (a vehicle at rest has no steerage until it moves), then :func:`_best_to_goal`."""
+    run_up = cfg.start_run_up_m
+    sx, sy, syaw = start
+    if run_up > 0.0 and math.hypot(goal[0] - sx, goal[1] - sy) > run_up + 2.0 * cfg.turning_radius_m:
+        first = StraightSegment(sx, sy, syaw, run_up)
+        ex, ey = sx + run_up * math.cos(syaw), sy + run_up * math.sin(syaw)
+        if point_inside(ex, ey, inflated) is None and not segments_collide((first,), inflated):
+            try:
+                word, segments, _ = _best_to_goal((ex, ey, syaw), goal, cfg, inflated)
+            except PlannerError:
+                pass  # no way on from the run-up's end: turn from the start instead
+            else:
+                segments = (first, *segments)
+                return "S" + word, segments, cost_terms(segments, cfg).total
+    return _best_to_goal(start, goal, cfg, inflated)
+
+
+def _best_to_goal(
+    start: Pose, goal: GoalPose, cfg: PlannerConfig, inflated: Sequence[tuple[float, float, float]]
+) -> tuple[str, tuple[Segment, ...], float]:
     """(word, segments, cost) of the best collision-free path, through the goal's run-in when it has a
     heading and ``goal_run_in_m`` > 0 (a straight of that length ending at the goal), else direct."""
     run_in = cfg.goal_run_in_m

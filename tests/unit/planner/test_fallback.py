@@ -11,6 +11,7 @@ from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.validate import check_mission
 from onboard.core.planner import PlannerConfig, PlannerError, plan
+from onboard.core.planner.path import StraightSegment
 
 # Random mission r44 of hil_sim/campaigns/random.yaml: an obstacle 4.3 m off the start's beam blocks both
 # 2.93 m turning circles (inflated to 2.93 m, its radius being 1.83 + 1 m of margin < 2.93 m).
@@ -86,3 +87,20 @@ def test_a_goal_within_an_obstacles_margin_plans_with_the_reduced_margin_and_say
     assert check_mission(mission, CoreConfig(planner=cfg)).first is None
     with pytest.raises(PlannerError, match="min_obstacle_margin_m"):
         PlannerConfig(min_obstacle_margin_m=-1.0)
+
+
+def test_a_path_starts_with_the_run_up_where_it_is_free() -> None:
+    cfg = PlannerConfig(turning_radius_m=2.93, start_run_up_m=2.0)
+    # GIVEN a start heading east and a goal to the north-east (the paper's planning example)
+    path = plan((0.0, 0.0, math.pi / 2), (30.0, 20.0, 0.0), cfg)
+    first = path.segments[0]
+    # THEN it runs 2 m straight along the start heading before the first turn
+    assert isinstance(first, StraightSegment) and first.length_m == pytest.approx(2.0)
+    assert first.yaw_rad == pytest.approx(math.pi / 2) and path.word.startswith("S")
+    # an obstacle over the run-up, or a goal too near for it: the path turns from the start
+    blocked = plan((0.0, 0.0, math.pi / 2), (30.0, 20.0, 0.0), cfg, [(-1.5, 4.0, 0.5)])
+    assert not (isinstance(blocked.segments[0], StraightSegment) and blocked.segments[0].length_m == 2.0)
+    near = plan((0.0, 0.0, 0.0), (5.0, 4.0, None), cfg)
+    assert near.segments[0].kind != "S"
+    with pytest.raises(PlannerError, match="start_run_up_m"):
+        PlannerConfig(start_run_up_m=-1.0)
