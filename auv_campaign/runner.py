@@ -291,8 +291,9 @@ def _record_first_plans(autopilot: Autopilot, out: dict[int, Path]) -> None:
     def plan_done(request_id: int, result: Any) -> None:
         req = asked.pop(request_id, None)
         done(request_id, result)
-        if req is not None and req.kind == "goal" and autopilot.path is result:  # taken, not stale
-            out.setdefault(req.goal_index, result)
+        path = autopilot.path
+        if req is not None and req.kind == "goal" and path is not None and path is result:  # taken, not stale
+            out.setdefault(req.goal_index, path)
 
     autopilot.take_plan_request = take_plan_request  # type: ignore[method-assign]
     autopilot.plan_done = plan_done  # type: ignore[method-assign]
