@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import random
 import sys
 import time
 from pathlib import Path
@@ -99,7 +100,13 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--tlog-dir", type=Path, default=None, help="where the session .tlog goes")
     ap.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the vehicle")
     ap.add_argument("--signing-key", type=Path, help="sign with this key (32 bytes or 64 hex characters)")
-    ap.add_argument("--system-id", type=int, default=255, help="our MAVLink system id")
+    ap.add_argument(
+        "--system-id",
+        type=int,
+        default=None,
+        help="our MAVLink system id (default: one of our own, drawn from 200-254 per session, so two "
+        "ground stations do not share the ids every stock one has, 255)",
+    )
     sub = ap.add_subparsers(dest="cmd", required=True)
     p = sub.add_parser(
         "upload",
@@ -256,6 +263,16 @@ def _new_tlog(tlog_dir: Path) -> Path:
     return path
 
 
+#: The system ids a ground station draws its own from (255, the stock default, and below 200 are left to
+#: vehicles and other tools).
+OWN_SYSTEM_IDS = range(200, 255)
+
+
+def own_system_id() -> int:
+    """A system id of this session's own, drawn from :data:`OWN_SYSTEM_IDS`."""
+    return random.SystemRandom().choice(OWN_SYSTEM_IDS)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     out = _Out(args.json)
@@ -283,7 +300,8 @@ def main(argv: list[str] | None = None) -> int:
     tlog_dir.mkdir(parents=True, exist_ok=True)
     tlog = _new_tlog(tlog_dir)
     try:
-        with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=args.system_id) as client:
+        system_id = args.system_id if args.system_id is not None else own_system_id()
+        with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id) as client:
             client.heartbeat()
             t0 = time.monotonic()
             first_s = args.ready_timeout if args.cmd == "wait-ready" else args.timeout

@@ -40,7 +40,8 @@ from pymavlink.dialects.v20 import common as mavlink
 from onboard.adapters.mavlink.api import Request
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_protocol import goal_of_seq
-from onboard.adapters.mavlink.transport import Sender, Transport, addressed_to
+from onboard.adapters.mavlink.peers import Sender
+from onboard.adapters.mavlink.transport import Transport, addressed_to
 from onboard.core import commands as core
 from onboard.core.commands import Outcome, Severity, Verdict
 
@@ -330,7 +331,9 @@ class CommandService:
         self.acks += 1
         if verdict.outcome is not Outcome.ACCEPTED and verdict.outcome is not Outcome.UNSUPPORTED:
             self.transport.statustext(Severity.WARNING, verdict.reason)
-        log.info("command %d from %d/%d: %s (%s)", cmd, *sender, verdict.outcome.value, verdict.reason)
+        log.info(
+            "command %d from %d/%d: %s (%s)", cmd, sender[0], sender[1], verdict.outcome.value, verdict.reason
+        )
 
     def _link_only(self, cmd: int, p: list[float], sender: Sender) -> None:
         """The commands that do not touch the vehicle: answered here, then their message is sent."""

@@ -39,9 +39,10 @@ from onboard.adapters.mavlink.commands import CommandService, RequestQueue
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_service import MissionService, Validator
 from onboard.adapters.mavlink.params import ParamService, SpecLike
+from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.persistence import StateStore
 from onboard.adapters.mavlink.telemetry import CAPABILITIES, Telemetry
-from onboard.adapters.mavlink.transport import Sender, Transport
+from onboard.adapters.mavlink.transport import Transport
 from onboard.core import commands as core
 from onboard.core.commands import Note, Severity, Verdict
 from onboard.core.mission.model import Mission

@@ -48,6 +48,7 @@ from dataclasses import astuple, dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from onboard.adapters.mavlink.peers import Sender
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.protocol.conventions import wrap_pi
 
@@ -70,8 +71,6 @@ _LEGACY_FRAME_TO_INT = {
     mavlink.MAV_FRAME_GLOBAL: mavlink.MAV_FRAME_GLOBAL_INT,
     mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
 }
-
-Sender = tuple[int, int]
 
 
 @dataclass(frozen=True)
@@ -382,7 +381,7 @@ class MissionServer:
     def __init__(
         self,
         limits: MissionLimits,
-        own: Sender = (1, 1),
+        own: tuple[int, int] = (1, 1),
         stored: dict[int, tuple[MissionItem, ...]] | None = None,
     ) -> None:
         self.limits = limits
@@ -395,6 +394,7 @@ class MissionServer:
         self._last_done: tuple[Sender, int, int, MissionItem] | None = None
         self._changed = False
         self.stats = MissionStats()
+        self._refusals: list[tuple[Sender, str]] = []
 
     # ---- queries -------------------------------------------------------------------------------
     def items(self, mission_type: int) -> tuple[MissionItem, ...]:
@@ -409,6 +409,18 @@ class MissionServer:
     @property
     def judging(self) -> bool:
         return self._judging is not None
+
+    @property
+    def transfer_sender(self) -> Sender | None:
+        """Whose transfer is in progress (items coming, or judged): its requests and ACK go to it alone."""
+        if self._judging is not None:
+            return self._judging.candidate.sender
+        return self._upload.sender if self._upload is not None else None
+
+    def take_refusals(self) -> list[tuple[Sender, str]]:
+        """(sender, why) of each transfer refused because another was in progress, since the last call."""
+        out, self._refusals = self._refusals, []
+        return out
 
     def mission(self) -> Mission:
         """The stored mission and fence as one :class:`Mission`."""
@@ -513,6 +525,16 @@ class MissionServer:
 
     def _busy(self, sender: Sender, mission_type: int) -> list[mavlink.MAVLink_message]:
         self.stats.denied += 1
+        owner = self.transfer_sender
+        who = f"{owner[0]}/{owner[1]}" if owner is not None else "another ground station"
+        same = (
+            " (the same ids, another link)"
+            if owner is not None and tuple(owner[:2]) == tuple(sender[:2])
+            else ""
+        )
+        self._refusals.append(
+            (sender, f"mission transfer refused: {who}{same} is uploading; try again after")
+        )
         return [self._ack(sender, mavlink.MAV_MISSION_DENIED, mission_type)]
 
     def _on_count(

@@ -46,8 +46,9 @@ from onboard.adapters.mavlink.mission_protocol import (
     home_offset,
     items_from_mission,
 )
+from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.persistence import FILE_NAMES, StateStore, mission_key
-from onboard.adapters.mavlink.transport import Sender, Transport
+from onboard.adapters.mavlink.transport import Transport
 from onboard.core import commands as core
 from onboard.core.commands import Severity, Verdict
 from onboard.core.mission.model import Mission
@@ -192,7 +193,10 @@ class MissionService:
     # ---- I/O thread ------------------------------------------------------------------------------
     def handle(self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float) -> None:
         for m in self.server.handle(msg, sender, now_s):
-            self.transport.send(m)
+            self.transport.reply(m, sender)  # every answer is to the sender (a request, an ACK, DENIED)
+        for refused, why in self.server.take_refusals():
+            log.warning("%s (%s)", why, refused)
+            self.transport.statustext(Severity.WARNING, why, to=refused)
         candidate = self.server.take_candidate()
         if candidate is not None:
             self._check(candidate, now_s)
@@ -208,8 +212,9 @@ class MissionService:
         self._judge = _Judge(candidate, mission, future, now_s + self.config.validate_timeout_s)
 
     def poll(self, now_s: float, snapshot: VehicleSnapshot | None = None) -> None:
+        peer = self.server.transfer_sender
         for m in self.server.poll(now_s):
-            self.transport.send(m)
+            self._to_peer(m, peer)
         j = self._judge
         if j is not None and not j.with_core:
             if j.future.done():
@@ -272,13 +277,14 @@ class MissionService:
                     f"{_TYPE_NAMES[mt]} accepted but not saved ({exc.strerror or exc}): lost at a restart",
                 )
         self._judge = None
+        peer = self.server.transfer_sender
         acks = self.server.finish(mavlink.MAV_MISSION_ACCEPTED)
         with self._lock:  # the accepted mission is in force before the ground station hears ACCEPTED
             self._mission = self.server.mission()
             self._shape = (self.server.home_offset(), self.server.goal_count())
         self._key = mission_key(self.server.items(TYPE_MISSION))
         for m in acks:
-            self.transport.send(m)
+            self._to_peer(m, peer)
         log.info(
             "%s accepted: %d goals, %d obstacles",
             _TYPE_NAMES.get(c.mission_type, "plan"),
@@ -288,11 +294,19 @@ class MissionService:
 
     def _finish(self, result: int, text: str = "") -> None:
         self._judge = None
+        peer = self.server.transfer_sender
         for m in self.server.finish(result):
-            self.transport.send(m)
+            self._to_peer(m, peer)
         if text:
             log.warning("%s", text)
-            self.transport.statustext(Severity.WARNING, text)
+            self.transport.statustext(Severity.WARNING, text, to=peer)
+
+    def _to_peer(self, msg: mavlink.MAVLink_message, peer: Sender | None) -> None:
+        """A message of the transfer of ``peer``: to its link alone (to every peer when unknown)."""
+        if peer is None:
+            self.transport.send(msg)
+        else:
+            self.transport.reply(msg, peer)
 
     def _save_progress(self, s: VehicleSnapshot) -> None:
         with self._lock:

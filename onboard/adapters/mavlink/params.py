@@ -27,8 +27,9 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from onboard.adapters.mavlink.commands import RequestQueue
 from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.persistence import StateStore
-from onboard.adapters.mavlink.transport import Sender, Transport, addressed_to
+from onboard.adapters.mavlink.transport import Transport, addressed_to
 from onboard.core import commands as core
 from onboard.core.commands import Severity, Verdict
 from onboard.core.params import ParamSpec, float32

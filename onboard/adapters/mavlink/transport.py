@@ -4,7 +4,10 @@
 every UDP datagram on its own (:func:`onboard.adapters.mavlink.wire.decode_datagram`) with the signature
 checked before the timestamp, sheds datagrams beyond ``rx_budget_per_s`` unparsed (counted), learns the
 peers that speak to it (at most :data:`MAX_PEERS` per socket, forgotten after :data:`PEER_EXPIRY_S`) and
-sends every message to every peer. :meth:`Transport.wake` (any thread) interrupts :meth:`Transport.wait`.
+sends every message to every peer, or a reply to the one link its request came over
+(:class:`~onboard.adapters.mavlink.peers.Sender` carries it: a transfer belongs to one peer, not to a pair
+of ids two ground stations may share). :meth:`Transport.wake` (any thread) interrupts
+:meth:`Transport.wait`.
 
 STATUSTEXT: :meth:`Transport.statustext` maps a core :class:`~onboard.core.commands.Severity` to
 MAV_SEVERITY (the one table, :data:`MAV_SEVERITY`) and splits a text longer than 50 bytes into chunks with
@@ -14,6 +17,7 @@ that fills its last chunk exactly is followed by an empty one).
 
 from __future__ import annotations
 
+import itertools
 import logging
 import selectors
 import socket
@@ -24,6 +28,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key, parse_endpoint
+from onboard.adapters.mavlink.peers import Addr, Link, Sender
 from onboard.adapters.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
 from onboard.core.commands import Severity
 
@@ -32,8 +37,6 @@ log = logging.getLogger(__name__)
 PEER_EXPIRY_S = 30.0
 MAX_PEERS = 16
 STATUSTEXT_LEN = 50
-Addr = tuple[str, int]
-Sender = tuple[int, int]
 OnMessage = Callable[[mavlink.MAVLink_message, Sender, float], None]
 
 #: The one mapping of the core's note severities to MAV_SEVERITY.
@@ -64,6 +67,9 @@ def statustext_chunks(text: str, chunk_id: int) -> list[tuple[bytes, int, int]]:
     return [(c, chunk_id, k) for k, c in enumerate(chunks)]
 
 
+_serials = itertools.count(1)
+
+
 @dataclass
 class _Socket:
     kind: str
@@ -72,6 +78,7 @@ class _Socket:
     peers: dict[Addr, float] = field(default_factory=dict)  # learned address -> last rx (monotonic)
     stream_parser: Any = None  # for TCP connections
     server: bool = False
+    serial: int = field(default_factory=lambda: next(_serials))
 
 
 class _Fanout:
@@ -110,6 +117,7 @@ class Transport:
         self._budget = float(config.rx_budget_per_s)
         self._budget_t = clock()
         self._text_id = 0
+        self._route: Link | None = None  # set while send_to() encodes: the one destination
 
     # ---- lifecycle -----------------------------------------------------------------------------
     def open(self) -> None:
@@ -205,9 +213,9 @@ class Transport:
         self._budget -= 1.0
         return True
 
-    def _dispatch(self, msg: mavlink.MAVLink_message, now: float) -> None:
+    def _dispatch(self, msg: mavlink.MAVLink_message, now: float, link: Link) -> None:
         try:
-            self.on_message(msg, (msg.get_srcSystem(), msg.get_srcComponent()), now)
+            self.on_message(msg, Sender(msg.get_srcSystem(), msg.get_srcComponent(), link), now)
         except Exception:  # never let one message kill the link
             log.exception("MAVLink message %s failed", msg.get_type())
 
@@ -241,7 +249,7 @@ class Transport:
                 continue
             for msg, _frame in decode_datagram(data, self.rx, self._verifier):
                 self._learn(s, addr, now)
-                self._dispatch(msg, now)
+                self._dispatch(msg, now, (s.serial, addr))
 
     def _read_tcp(self, s: _Socket) -> None:
         try:
@@ -266,7 +274,7 @@ class Transport:
             if self._verifier is not None and not self._verifier.verify(frame, self.rx):
                 continue
             self.rx.packets += 1
-            self._dispatch(msg, now)
+            self._dispatch(msg, now, (s.serial, None))
 
     def _learn(self, s: _Socket, addr: Addr, now: float) -> None:
         if addr == s.fixed:
@@ -278,6 +286,9 @@ class Transport:
 
     # ---- send ----------------------------------------------------------------------------------
     def _send_raw(self, buf: bytes) -> None:
+        if self._route is not None:
+            self._send_one(buf, self._route)
+            return
         now = self._clock()
         for s in list(self._sockets):
             if s.server:
@@ -297,14 +308,47 @@ class Transport:
                 self.tx_errors += 1
         self.tx_packets += 1
 
-    def send(self, msg: mavlink.MAVLink_message) -> None:
-        """Send one message to every peer (I/O thread only)."""
-        self._mav.send(msg)
+    def _send_one(self, buf: bytes, link: Link) -> None:
+        serial, addr = link
+        for s in self._sockets:
+            if s.serial != serial:
+                continue
+            try:
+                if s.kind == "tcpconn":
+                    s.sock.send(buf)
+                elif addr is not None:
+                    s.sock.sendto(buf, addr)
+            except OSError:
+                self.tx_errors += 1
+            self.tx_packets += 1
+            return
+        self.tx_errors += 1  # the link is gone (a closed TCP connection): nobody to answer
 
-    def statustext(self, severity: Severity, text: str) -> None:
-        """One STATUSTEXT (chunked when longer than 50 bytes) with the severity mapped by the one table."""
+    def send(self, msg: mavlink.MAVLink_message, link: Link | None = None) -> None:
+        """Send one message to every peer, or with ``link`` to that one only (I/O thread only)."""
+        self._route = link
+        try:
+            self._mav.send(msg)
+        finally:
+            self._route = None
+
+    def reply(self, msg: mavlink.MAVLink_message, to: Sender) -> None:
+        """Send ``msg`` to the link ``to`` came over (to every peer when it is not known)."""
+        link = to.link if isinstance(to, Sender) else None
+        if link is None:
+            self.send(msg)
+        else:
+            self.send(msg, link)
+
+    def statustext(self, severity: Severity, text: str, to: Sender | None = None) -> None:
+        """One STATUSTEXT (chunked when longer than 50 bytes) with the severity mapped by the one table; to
+        every peer, or with ``to`` to that sender's link only."""
         sev = MAV_SEVERITY.get(severity, mavlink.MAV_SEVERITY_INFO)
         if len(text.encode("ascii", "replace")) > STATUSTEXT_LEN:
             self._text_id = self._text_id % 65535 + 1
         for raw, chunk_id, seq in statustext_chunks(text, self._text_id):
-            self.send(mavlink.MAVLink_statustext_message(sev, raw, chunk_id, seq))
+            msg = mavlink.MAVLink_statustext_message(sev, raw, chunk_id, seq)
+            if to is None:
+                self.send(msg)
+            else:
+                self.reply(msg, to)

@@ -20,6 +20,7 @@ from onboard.adapters.mavlink.mission_protocol import (
     is_home_item,
     item_position,
 )
+from onboard.adapters.mavlink.peers import Sender
 
 GCS = (255, 190)
 OTHER = (254, 190)
@@ -329,3 +330,24 @@ def test_random_items_never_crash_and_change_plan_only_when_valid(frame, command
         assert len(goals) == 1 and srv.items(TYPE_MISSION) == (it,)
     else:
         assert [g.x_m for g in goals] == [1.0]
+
+
+def test_the_same_ids_on_another_link_are_another_uploader() -> None:
+    # GIVEN an upload from 255/190 over one link
+    a = Sender(255, 190, (1, ("127.0.0.1", 40001)))
+    b = Sender(255, 190, (1, ("127.0.0.1", 40002)))  # a second ground station with the stock ids
+    srv = MissionServer(LIMITS)
+    req = only(srv.handle(count_msg(2), a, 0.0))
+    assert req.get_type() == "MISSION_REQUEST_INT" and srv.transfer_sender == a
+    # WHEN the other starts its own, or answers the first one's request
+    denied = only(srv.handle(count_msg(3), b, 0.0))
+    stray = only(srv.handle(item_msg(0, wp(1.0)), b, 0.0))
+    # THEN both are refused, with a reason for it, and the first upload goes on alone and is stored whole
+    assert denied.type == stray.type == mavlink.MAV_MISSION_DENIED
+    refusals = srv.take_refusals()
+    assert [who for who, _ in refusals] == [b, b]
+    assert "255/190 (the same ids, another link) is uploading" in refusals[0][1]
+    assert only(srv.handle(item_msg(0, wp(5.0)), a, 0.0)).seq == 1
+    out = judged(srv, srv.handle(item_msg(1, wp(6.0)), a, 0.0), ACCEPTED)
+    assert only(out).type == ACCEPTED and [i.x for i in srv.items(TYPE_MISSION)] == [50000, 60000]
+    assert srv.transfer_sender is None and srv.take_refusals() == []
