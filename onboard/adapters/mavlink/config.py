@@ -3,7 +3,7 @@
 Example::
 
     [mavlink]
-    endpoints = ["udpout:127.0.0.1:14550"]  # udpout:H:P, udpin:H:P (P 0 = any), tcpin:H:P
+    endpoints = ["udpout:127.0.0.1:14550", "tcpin:127.0.0.1:5760"]  # udpout, udpin (port 0 = any), tcpin
     gcs_loss_action = "continue"
     signing_key_file = ""                      # empty = signing off
 """
