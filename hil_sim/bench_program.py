@@ -133,31 +133,69 @@ def load_hil_config(path: str | Path | None, overrides: dict[str, dict[str, Any]
 
 
 # --- the actuator node -----------------------------------------------------------------------------
+#: The onboard's heartbeat (1 Hz and at every change) is stale after this (s): ARMED commands do nothing then.
+ONBOARD_HEARTBEAT_TIMEOUT_S = 3.0
+
+#: Onboard mission states in which its actuators may move (``Autopilot.actuators_live``; COMPLETE for the
+#: loiter end action: the surface one commands SAFE itself).
+LIVE_ONBOARD_STATES = frozenset(
+    {
+        m.MissionStateCode.ARMED,
+        m.MissionStateCode.RUNNING,
+        m.MissionStateCode.HOLD,
+        m.MissionStateCode.COMPLETE,
+    }
+)
+
+
 @dataclass
 class ActuatorNode:
     """Commands from the bus (already E2E-checked) into the watchdog; mode handling.
 
     SAFE: fins neutral, propeller off, and a latched failsafe is cleared (the onboard acknowledged it).
-    ARMED: follow the commands. ABORT: fins as commanded, propeller off.
+    ARMED: follow the commands, but only while the onboard's own heartbeat (ONBOARD_HEARTBEAT, sent at every
+    change of its mission state and each second) says it is in a live state (:data:`LIVE_ONBOARD_STATES`)
+    and is younger than ``heartbeat_timeout_periods``; otherwise as SAFE (a second sender of valid command
+    frames while the onboard is IDLE moves nothing; counted in ``refused_periods``). ABORT: fins as
+    commanded, propeller off.
     """
 
     timeout_periods: int
+    heartbeat_timeout_periods: int = 60
     watchdog: WatchdogState = field(default_factory=WatchdogState)
     fin: m.FinCmd | None = None
     prop: m.PropCmd | None = None
     fin_fresh: bool = False
     prop_fresh: bool = False
+    onboard_state: m.MissionStateCode | None = None
+    onboard_age_periods: int = 0
+    refused_periods: int = 0
 
     def take(self, msg: m.BusMessage) -> None:
         if isinstance(msg, m.FinCmd):
             self.fin, self.fin_fresh = msg, True
         elif isinstance(msg, m.PropCmd):
             self.prop, self.prop_fresh = msg, True
+        elif isinstance(msg, m.OnboardHeartbeat):
+            self.onboard_state, self.onboard_age_periods = msg.node_state, 0
+
+    @property
+    def onboard_live(self) -> bool:
+        """The onboard's latest heartbeat is recent and says its actuators may move."""
+        return (
+            self.onboard_state in LIVE_ONBOARD_STATES
+            and self.onboard_age_periods <= self.heartbeat_timeout_periods
+        )
 
     @property
     def armed(self) -> bool:
-        """Following ARMED commands now (not in a latched failsafe)."""
-        return self.prop is not None and self.prop.mode is m.ActuatorMode.ARMED and not self.watchdog.failsafe
+        """Following ARMED commands now (not in a latched failsafe, and the onboard says it is live)."""
+        return (
+            self.prop is not None
+            and self.prop.mode is m.ActuatorMode.ARMED
+            and not self.watchdog.failsafe
+            and self.onboard_live
+        )
 
     def end_period(self) -> ActuatorCommand:
         """Close one control period: advance the watchdog; the command the actuators follow.
@@ -173,11 +211,22 @@ class ActuatorNode:
                 if self.watchdog.failsafe:
                     log.info("actuator failsafe cleared by a SAFE command")
                     self.watchdog = watchdog_rearm(self.watchdog)
+            elif mode is m.ActuatorMode.ARMED and not self.onboard_live:
+                if self.refused_periods == 0:
+                    log.warning(
+                        "ARMED commands while the onboard heartbeat says %s: held neutral",
+                        "nothing (none for a while)"
+                        if self.onboard_state is None
+                        else self.onboard_state.name,
+                    )
+                self.refused_periods += 1
+                cmd = ActuatorCommand()
             else:
                 rps = self.prop.propeller_rps if mode is m.ActuatorMode.ARMED else 0.0
                 cmd = ActuatorCommand(
                     self.fin.rudder_rad, self.fin.stern_port_rad, self.fin.stern_starboard_rad, rps
                 )
+        self.onboard_age_periods += 1
         was = self.watchdog.failsafe
         self.watchdog = watchdog_tick(self.watchdog, cmd, self.timeout_periods)
         if self.watchdog.failsafe and not was:
@@ -299,7 +348,8 @@ class Bench:
         # Pre-start samples (their count depends on how long the operator takes) use their own generator.
         self.idle_rng = np.random.default_rng([cfg.bench.seed, 1])
         self.node = ActuatorNode(
-            cfg.bench.actuator_timeout_periods or params.config.actuators.watchdog_timeout_periods
+            cfg.bench.actuator_timeout_periods or params.config.actuators.watchdog_timeout_periods,
+            heartbeat_timeout_periods=round(ONBOARD_HEARTBEAT_TIMEOUT_S * cfg.bench.control_rate_hz),
         )
         self.pending: list[Measurement] = []
 

@@ -442,6 +442,7 @@ def test_a_period_counts_as_commanded_only_with_both_command_frames() -> None:
     from hil_sim.bench_program import ActuatorNode
 
     node = ActuatorNode(timeout_periods=3)
+    node.take(m.OnboardHeartbeat(m.MissionStateCode.RUNNING, 1.0))
     node.take(m.FinCmd(0.1, 0.0, 0.0))
     node.take(m.PropCmd(20.0, m.ActuatorMode.ARMED))
     assert node.end_period().propeller_rps == 20.0 and node.armed
@@ -452,3 +453,28 @@ def test_a_period_counts_as_commanded_only_with_both_command_frames() -> None:
     # THEN the watchdog fires: stale fins are not kept alive by a fresh propeller frame; no longer armed
     assert node.watchdog.failsafe and out.propeller_rps == 0.0 and out.rudder_rad == 0.0
     assert not node.armed
+
+
+def test_armed_commands_move_nothing_unless_the_onboard_heartbeat_says_live() -> None:
+    # GIVEN the actuator node and a second sender of valid FIN_CMD + PROP_CMD frames (30 rps, rudder 0.3)
+    from hil_sim.bench_program import ActuatorNode
+
+    node = ActuatorNode(timeout_periods=5, heartbeat_timeout_periods=3)
+
+    def period() -> tuple[float, float]:
+        node.take(m.FinCmd(0.3, 0.0, 0.0))
+        node.take(m.PropCmd(30.0, m.ActuatorMode.ARMED))
+        out = node.end_period()
+        return out.propeller_rps, out.rudder_rad
+
+    # WHEN no onboard heartbeat was ever heard, or it says IDLE (the firmware is disarmed)
+    assert period() == (0.0, 0.0)
+    node.take(m.OnboardHeartbeat(m.MissionStateCode.IDLE, 1.0))
+    assert [period() for _ in range(10)] == [(0.0, 0.0)] * 10
+    # THEN nothing moves, the watchdog stays fed (no failsafe), and the node counts the refused periods
+    assert not node.watchdog.failsafe and not node.armed and node.refused_periods == 11
+    # WHEN the onboard says RUNNING: obeyed; once its heartbeat is older than the timeout: neutral again
+    node.take(m.OnboardHeartbeat(m.MissionStateCode.RUNNING, 2.0))
+    assert period() == (30.0, 0.3) and node.armed
+    assert [period() for _ in range(3)] == [(30.0, 0.3)] * 3
+    assert period() == (0.0, 0.0) and not node.armed
