@@ -83,7 +83,14 @@ class VehicleLink:
         self.config = config
         self._clock = clock
         self.store = store if store is not None else StateStore(config.resolved_state_dir())
-        self.transport = Transport(config, clock, self.dispatch)
+        signed = bool(config.signing_key_file)
+        self.transport = Transport(
+            config,
+            clock,
+            self.dispatch,
+            signing_floor=self.store.load_signing_timestamp() if signed else 0,
+            on_signing_advance=self._save_signing_timestamp if signed else None,
+        )
         self.requests = RequestQueue(clock, config.command_timeout_s, self.transport.wake)
         self.missions = MissionService(
             config, self.transport, self.requests, self.store, validator, initial_mission
@@ -108,6 +115,17 @@ class VehicleLink:
         self._stop = threading.Event()
 
     # ---- the loop's API (thread-safe, cheap) ----------------------------------------------------
+    def _save_signing_timestamp(self, timestamp: int) -> None:
+        """Persist a newer signing timestamp; a failure is logged (once) and the packet still used: a
+        replay across a restart is then possible until the state directory is writable again."""
+        try:
+            self.store.save_signing_timestamp(timestamp)
+            self._signing_save_failed = False
+        except OSError as exc:
+            if not getattr(self, "_signing_save_failed", False):
+                log.error("signing timestamp not saved (%s): a replay across a restart is possible", exc)
+            self._signing_save_failed = True
+
     def take_requests(self) -> list[Request]:
         """The requests not taken yet, oldest first; answer each exactly once with :meth:`answer`."""
         return self.requests.take()

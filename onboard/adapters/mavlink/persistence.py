@@ -54,6 +54,7 @@ log = logging.getLogger(__name__)
 FILE_NAMES = {TYPE_MISSION: "mission.json", TYPE_FENCE: "fence.json"}
 PARAMS_FILE = "params.json"
 PROGRESS_FILE = "progress.json"
+SIGNING_FILE = "signing.json"
 FORMAT_VERSION = 1
 #: MAVLink PARAM_* ids are at most 16 characters.
 MAX_PARAM_NAME = 16
@@ -72,19 +73,23 @@ class InvalidStateFile(ValueError):
     """A state file whose content is unusable; the message says why (e.g. "item 3: frame 99 unsupported")."""
 
 
-def write_json_atomic(path: Path, data: Any) -> None:
-    """Write ``data`` as JSON to ``path`` atomically and durably."""
+def write_json_atomic(path: Path, data: Any, durable: bool = True) -> None:
+    """Write ``data`` as JSON to ``path`` atomically and (``durable``) synced to the disk; without it the
+    file survives a process crash or kill, not a power loss (for a value written many times a second)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         with tmp.open("w", encoding="utf-8") as f:
             json.dump(data, f, indent=1, allow_nan=False)
             f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    if not durable:
+        return
     fd = os.open(path.parent, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -345,6 +350,28 @@ class StateStore:
             log.info("progress.json belongs to another mission; starting at goal 0")
             return None
         return index
+
+    # ---- signing ---------------------------------------------------------------------------------
+    def save_signing_timestamp(self, timestamp: int) -> None:
+        """Persist the newest signing timestamp accepted (10 us units since 2015): after a restart no packet
+        at or below it is accepted (a replay). Written at every advance, atomically, not synced."""
+        write_json_atomic(
+            self.dir / SIGNING_FILE, {"version": FORMAT_VERSION, "timestamp": int(timestamp)}, durable=False
+        )
+
+    def load_signing_timestamp(self) -> int:
+        """The persisted signing timestamp, or 0 (none; an invalid file is set aside)."""
+        data = self._load(SIGNING_FILE)
+        if data is None:
+            return 0
+        try:
+            ts = _shape(data, "timestamp", int)
+            if not (_is_int(ts) and 0 <= ts < 1 << 48):
+                raise ValueError(f"timestamp must be a 48-bit integer, got {ts!r}")
+            return int(ts)
+        except Exception as exc:  # anything in untrusted content means invalid
+            self.quarantine(SIGNING_FILE, _why(exc))
+            return 0
 
 
 def _why(exc: BaseException) -> str:

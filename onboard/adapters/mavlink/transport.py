@@ -94,7 +94,17 @@ class _Fanout:
 class Transport:
     """The endpoint's sockets and the MAVLink encoder. All but :meth:`wake` run on the I/O thread."""
 
-    def __init__(self, config: MavlinkConfig, clock: Callable[[], float], on_message: OnMessage) -> None:
+    def __init__(
+        self,
+        config: MavlinkConfig,
+        clock: Callable[[], float],
+        on_message: OnMessage,
+        signing_floor: int = 0,
+        on_signing_advance: Callable[[int], None] | None = None,
+    ) -> None:
+        """``signing_floor`` / ``on_signing_advance``: the persisted newest signing timestamp accepted, and
+        where a newer one goes (:class:`~onboard.adapters.mavlink.wire.SigningVerifier`); the vehicle's own
+        outgoing timestamps start above the floor too."""
         self.config = config
         self._clock = clock
         self.on_message = on_message
@@ -105,11 +115,11 @@ class Transport:
         self._verifier: SigningVerifier | None = None
         if config.signing_key_file:
             key = load_signing_key(config.signing_key_file)
-            self._verifier = SigningVerifier(key)
+            self._verifier = SigningVerifier(key, signing_floor, on_signing_advance)
             self._mav.signing.secret_key = key
             self._mav.signing.link_id = config.signing_link_id
             self._mav.signing.sign_outgoing = True
-            self._mav.signing.timestamp = signing_timestamp_now()
+            self._mav.signing.timestamp = max(signing_timestamp_now(), signing_floor + 1)
         self._sockets: list[_Socket] = []
         self._selector: selectors.BaseSelector | None = None
         self._wake_r: socket.socket | None = None

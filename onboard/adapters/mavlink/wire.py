@@ -16,6 +16,7 @@ import hashlib
 import hmac
 import struct
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -50,12 +51,18 @@ class RxStats:
 class SigningVerifier:
     """MAVLink 2 signature check with per-stream timestamps, HMAC verified before any timestamp is kept."""
 
-    def __init__(self, key: bytes) -> None:
+    def __init__(self, key: bytes, floor: int = 0, on_advance: Callable[[int], None] | None = None) -> None:
+        """``floor``: the newest timestamp accepted before a restart (persisted): no packet at or below it
+        is accepted, on any stream (a replay across the restart). ``on_advance(ts)`` is called with each
+        newer timestamp accepted, before the packet is used (the caller persists it)."""
         if len(key) != 32:
             raise ValueError("a MAVLink signing key has 32 bytes")
         self._key = key
         self._streams: dict[tuple[int, int, int], int] = {}
-        self.timestamp = signing_timestamp_now()
+        self.floor = floor
+        self.accepted = floor  # the newest timestamp accepted (and handed to on_advance)
+        self.timestamp = max(signing_timestamp_now(), floor)
+        self._on_advance = on_advance
 
     def verify(self, frame: bytes, stats: RxStats) -> bool:
         """True if ``frame`` (one whole MAVLink 2 packet) is signed with our key and is fresh."""
@@ -72,9 +79,17 @@ class SigningVerifier:
         stream = (link_id, frame[5], frame[6])
         last = self._streams.get(stream)
         now = max(self.timestamp, signing_timestamp_now())
-        if (last is not None and ts <= last) or (last is None and ts + MAX_NEW_STREAM_LAG < now):
+        if (
+            ts <= self.floor
+            or (last is not None and ts <= last)
+            or (last is None and ts + MAX_NEW_STREAM_LAG < now)
+        ):
             stats.old_timestamp += 1
             return False
+        if ts > self.accepted:
+            if self._on_advance is not None:
+                self._on_advance(ts)  # persisted before the packet is used
+            self.accepted = ts
         self._streams[stream] = ts
         self.timestamp = max(self.timestamp, ts)
         return True

@@ -182,3 +182,45 @@ def test_standalone_rejects_bad_config(tmp_path: Path) -> None:
         capture_output=True, text=True, timeout=30,
     )  # fmt: skip
     assert r.returncode == 2 and "no_such_key" in r.stderr
+
+
+def test_a_signed_packet_replayed_after_a_restart_is_refused(tmp_path: Path) -> None:
+    # GIVEN a signing vehicle and its ground station, whose signed PARAM_SET LIM_RPS_MAX = 20 is captured
+    key = bytes(range(1, 33))
+    (tmp_path / "key").write_text(key.hex())
+    state = tmp_path / "s"
+    v = Vehicle(state, signing_key_file=str(tmp_path / "key")).start()
+    captured: list[bytes] = []
+    try:
+        gcs = MavClient(f"udpout:127.0.0.1:{v.port}", signing_key=key)
+        gcs.heartbeat()
+        gcs.wait_heartbeat(3.0)
+        inner = gcs.write
+        gcs.write = lambda buf: (captured.append(bytes(buf)), inner(buf))[1]  # type: ignore[method-assign]
+        assert gcs.param_set("LIM_RPS_MAX", 20.0)[0]
+        gcs.write = inner  # type: ignore[method-assign]
+        assert gcs.param_set("LIM_RPS_MAX", 25.0)[0]  # the operator changes it again
+        gcs.close()
+    finally:
+        v.stop()
+    replay = next(b for b in captured if b[7] | b[8] << 8 | b[9] << 16 == 23)  # PARAM_SET's message id
+    # WHEN the firmware restarts (same state directory) and an attacker without the key replays the packet
+    v = Vehicle(state, signing_key_file=str(tmp_path / "key")).start()
+    try:
+        raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        for _ in range(3):
+            raw.sendto(replay, ("127.0.0.1", v.port))
+            time.sleep(0.1)
+        raw.close()
+        # THEN it is refused as an old timestamp, and the parameter is the operator's last value
+        deadline = time.monotonic() + 2.0
+        while v.link.stats()["old_timestamp"] < 3 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert v.link.stats()["old_timestamp"] >= 3
+        good = MavClient(f"udpout:127.0.0.1:{v.port}", signing_key=key)
+        good.heartbeat()
+        good.wait_heartbeat(3.0)
+        assert good.param_get("LIM_RPS_MAX") == 25.0  # and the real ground station is not locked out
+        good.close()
+    finally:
+        v.stop()

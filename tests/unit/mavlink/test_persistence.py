@@ -238,3 +238,13 @@ def test_absurd_numbers_or_nesting_make_invalid_files_not_a_crash(
     assert store.load_progress("key") is None
     assert len(store.quarantined()) == 1 and name in store.quarantined()[0]
     assert not (tmp_path / name).exists()
+
+
+def test_the_signing_timestamp_round_trips_and_a_bad_file_is_set_aside(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    assert store.load_signing_timestamp() == 0
+    store.save_signing_timestamp(123_456_789_012)
+    assert StateStore(tmp_path).load_signing_timestamp() == 123_456_789_012
+    (tmp_path / "signing.json").write_text('{"version": 1, "timestamp": -5}')
+    bad = StateStore(tmp_path)
+    assert bad.load_signing_timestamp() == 0 and bad.quarantined()

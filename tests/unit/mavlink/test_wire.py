@@ -111,6 +111,22 @@ def test_replayed_packet_and_stale_new_stream_rejected() -> None:
     assert st_.old_timestamp == 2
 
 
+def test_the_persisted_floor_refuses_a_replay_on_a_new_stream_and_each_advance_is_handed_on() -> None:
+    # GIVEN a packet accepted before a restart, whose timestamp the vehicle persisted (the floor)
+    saved: list[int] = []
+    p = packet(COUNT, KEY)
+    before = SigningVerifier(KEY, on_advance=saved.append)
+    assert len(decode_datagram(p, RxStats(), before)) == 1 and len(saved) == 1
+    # WHEN the restarted vehicle (no streams in memory) sees it again
+    after = SigningVerifier(KEY, floor=saved[-1], on_advance=saved.append)
+    st_ = RxStats()
+    # THEN it is refused, though a new stream within a minute of now would otherwise pass
+    assert decode_datagram(p, st_, after) == [] and st_.old_timestamp == 1
+    # and a fresh packet passes and advances the floor that is persisted
+    fresh = packet(COUNT, KEY, ts=saved[-1] + 1)
+    assert len(decode_datagram(fresh, st_, after)) == 1 and saved[-1] == after.accepted
+
+
 def test_signature_bytes_layout_matches_spec() -> None:
     p = packet(COUNT, KEY)
     assert p[2] & 1 and len(p) == 10 + p[1] + 2 + 13
