@@ -28,6 +28,8 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common.mavlink_signing import SigningVerifier, signing_timestamp_now
+
 Msg = mavlink.MAVLink_message
 MISSION_RESULT_NAMES = {
     v: k
@@ -195,10 +197,13 @@ class MavClient:
                 self._peer = (host, port)
         self.sock.setblocking(True)
         self.mav = mavlink.MAVLink(self, system_id, component_id)
+        self.signing = SigningStats()
+        self._verifier: SigningVerifier | None = None
         if signing_key is not None:
             self.mav.signing.secret_key = signing_key
             self.mav.signing.sign_outgoing = True
-            self.mav.signing.timestamp = int((time.time() - 1420070400.0) * 100_000)
+            self.mav.signing.timestamp = signing_timestamp_now()
+            self._verifier = SigningVerifier(signing_key)  # the vehicle's replies are checked too
         self.system_id = system_id
         self.component_id = component_id
         self.target: tuple[int, int] = (1, 1)
@@ -227,6 +232,16 @@ class MavClient:
     def _record(self, buf: bytes) -> None:
         if self._tlog is not None:
             self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + buf)
+
+    def signing_note(self) -> str:
+        """ "" or, when packets were dropped by the signature check, a clause saying how many and why."""
+        st = self.signing
+        if not st.dropped:
+            return ""
+        return (
+            f" (ignored {st.dropped} packets not signed with our key: {st.unsigned_rejected} unsigned, "
+            f"{st.bad_signature} with another or a forged signature, {st.old_timestamp} replayed)"
+        )
 
     def close(self) -> None:
         self.sock.close()
@@ -266,7 +281,10 @@ class MavClient:
             if m.get_type() == "BAD_DATA":
                 self.rx_errors += 1
                 continue
-            self._record(bytes(m.get_msgbuf()))
+            frame = bytes(m.get_msgbuf())
+            if self._verifier is not None and not self._verifier.verify(frame, self.signing):
+                continue  # unsigned, or not signed with our key, or replayed: not the vehicle we trust
+            self._record(frame)
             out.append(m)
         return out
 
@@ -337,7 +355,7 @@ class MavClient:
             if m is not None and m.get_type() == "HEARTBEAT" and m.type != mavlink.MAV_TYPE_GCS:
                 self.target = (m.get_srcSystem(), m.get_srcComponent())
                 return m
-        raise LinkError(f"no vehicle heartbeat within {timeout_s:.1f} s")
+        raise LinkError(f"no vehicle heartbeat within {timeout_s:.1f} s{self.signing_note()}")
 
     def _from_target(self, m: Msg) -> bool:
         return (m.get_srcSystem(), m.get_srcComponent()) == self.target
@@ -402,7 +420,9 @@ class MavClient:
         while True:
             now = time.monotonic()
             if now - last_progress > timeout_s:
-                return TransferResult(False, -1, "TIMEOUT", now - t0, resends)
+                return TransferResult(
+                    False, -1, "TIMEOUT", now - t0, resends, self.signing_note().strip(" ()")
+                )
             m = self.recv(max(0.0, min(wait_s - (now - last_tx), 0.1)))
             now = time.monotonic()
             if m is None:
@@ -498,7 +518,7 @@ class MavClient:
                     return m
                 if m.get_type() == "MISSION_ACK" and kind != "MISSION_ACK" and m.type != 0:
                     return m
-        raise LinkError(f"no {kind} from the vehicle after {retries} tries")
+        raise LinkError(f"no {kind} from the vehicle after {retries} tries{self.signing_note()}")
 
     def clear(
         self, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION, *, resend_s: float = 0.5
@@ -581,7 +601,7 @@ class MavClient:
                         why = self.reason_after(t_sent, t_ack, window_s)
                     texts = tuple(t.text for t in self.texts_since(t_sent))
                     return CommandAck(result, MAV_RESULT_NAMES.get(result, str(result)), why, texts)
-        raise LinkError(f"no COMMAND_ACK for command {command} after {retries} tries")
+        raise LinkError(f"no COMMAND_ACK for command {command} after {retries} tries{self.signing_note()}")
 
     def wait_ready(self, timeout_s: float) -> tuple[bool, Msg | None, str]:
         """Wait until the vehicle's HEARTBEAT ``system_status`` is neither UNINIT nor BOOT (it reports BOOT
@@ -648,7 +668,7 @@ class MavClient:
                 m = self.recv(left)
                 if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
                     return float(m.param_value)
-        raise LinkError(f"no value for parameter {name}")
+        raise LinkError(f"no value for parameter {name}{self.signing_note()}")
 
     def param_set(
         self, name: str, value: float, *, resend_s: float = 0.5, retries: int = 5
@@ -668,7 +688,20 @@ class MavClient:
                 if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
                     got = float(m.param_value)
                     return got == want, got
-        raise LinkError(f"no answer to setting {name}")
+        raise LinkError(f"no answer to setting {name}{self.signing_note()}")
+
+
+@dataclass
+class SigningStats:
+    """Packets a signing client dropped: unsigned, signed with another key (or forged), old timestamps."""
+
+    unsigned_rejected: int = 0
+    bad_signature: int = 0
+    old_timestamp: int = 0
+
+    @property
+    def dropped(self) -> int:
+        return self.unsigned_rejected + self.bad_signature + self.old_timestamp
 
 
 def _text(raw: object) -> str:

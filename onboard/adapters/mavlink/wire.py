@@ -5,33 +5,27 @@ start of the next one. Here each datagram is split into frames by their declared
 decoded on its own; a frame that fails (bad CRC, bad length, truncated) is counted, and the scan resumes at
 the next start marker after its first byte, so a valid packet behind garbage is still found.
 
-pymavlink records a signed packet's timestamp before it compares the signature, so one forged packet with a
-future timestamp would lock the real ground station out. :class:`SigningVerifier` checks the HMAC first and
-only then the timestamp (https://mavlink.io/en/guide/message_signing.html).
+Signing: :class:`auv_common.mavlink_signing.SigningVerifier` (shared with the ground station) checks the
+HMAC before the timestamp.
 """
 
 from __future__ import annotations
 
-import hashlib
-import hmac
-import struct
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common.mavlink_signing import (
+    IFLAG_SIGNED,
+    MAGIC_V2,
+    SIGNATURE_LEN,
+    SigningVerifier,
+    signing_timestamp_now,
+)
+
+__all__ = ["MAGIC_V1", "MAGIC_V2", "RxStats", "SigningVerifier", "decode_datagram", "signing_timestamp_now"]
+
 MAGIC_V1 = 0xFE
-MAGIC_V2 = 0xFD
-IFLAG_SIGNED = 0x01
-SIGNATURE_LEN = 13
-_EPOCH_2015_S = 1420070400.0
-MAX_NEW_STREAM_LAG = 6_000_000  # 60 s in 10 us units, as the spec recommends
-
-
-def signing_timestamp_now() -> int:
-    """Current signing timestamp: 10 us units since 2015-01-01 UTC."""
-    return int((time.time() - _EPOCH_2015_S) * 100_000)
 
 
 @dataclass
@@ -46,53 +40,6 @@ class RxStats:
     bad_signature: int = 0
     old_timestamp: int = 0
     shed: int = 0  # datagrams dropped unparsed because the receive budget was used up
-
-
-class SigningVerifier:
-    """MAVLink 2 signature check with per-stream timestamps, HMAC verified before any timestamp is kept."""
-
-    def __init__(self, key: bytes, floor: int = 0, on_advance: Callable[[int], None] | None = None) -> None:
-        """``floor``: the newest timestamp accepted before a restart (persisted): no packet at or below it
-        is accepted, on any stream (a replay across the restart). ``on_advance(ts)`` is called with each
-        newer timestamp accepted, before the packet is used (the caller persists it)."""
-        if len(key) != 32:
-            raise ValueError("a MAVLink signing key has 32 bytes")
-        self._key = key
-        self._streams: dict[tuple[int, int, int], int] = {}
-        self.floor = floor
-        self.accepted = floor  # the newest timestamp accepted (and handed to on_advance)
-        self.timestamp = max(signing_timestamp_now(), floor)
-        self._on_advance = on_advance
-
-    def verify(self, frame: bytes, stats: RxStats) -> bool:
-        """True if ``frame`` (one whole MAVLink 2 packet) is signed with our key and is fresh."""
-        if frame[0] != MAGIC_V2 or not frame[2] & IFLAG_SIGNED or len(frame) < 12 + SIGNATURE_LEN:
-            stats.unsigned_rejected += 1
-            return False
-        expected = hashlib.sha256(self._key + frame[:-6]).digest()[:6]
-        if not hmac.compare_digest(expected, frame[-6:]):
-            stats.bad_signature += 1
-            return False
-        link_id = frame[-13]
-        tlow, thigh = struct.unpack("<IH", frame[-12:-6])
-        ts = tlow + (thigh << 32)
-        stream = (link_id, frame[5], frame[6])
-        last = self._streams.get(stream)
-        now = max(self.timestamp, signing_timestamp_now())
-        if (
-            ts <= self.floor
-            or (last is not None and ts <= last)
-            or (last is None and ts + MAX_NEW_STREAM_LAG < now)
-        ):
-            stats.old_timestamp += 1
-            return False
-        if ts > self.accepted:
-            if self._on_advance is not None:
-                self._on_advance(ts)  # persisted before the packet is used
-            self.accepted = ts
-        self._streams[stream] = ts
-        self.timestamp = max(self.timestamp, ts)
-        return True
 
 
 def _frame_length(data: bytes, i: int) -> int | None:

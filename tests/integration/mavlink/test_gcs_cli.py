@@ -397,3 +397,46 @@ def test_scenario_runner_raises_with_the_vehicles_reason(tmp_path: Path) -> None
             mavlink.MAV_CMD_MISSION_START,
         ]
         assert v.uploads == [mavlink.MAV_MISSION_TYPE_MISSION]
+
+
+def test_a_signing_ground_station_ignores_an_unsigned_spoofer_and_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # GIVEN no vehicle, only an unsigned spoofer that answers every command ACCEPTED (issue 12: before,
+    # `auv-gcs --signing-key K arm` printed MAV_RESULT_ACCEPTED)
+    spoof = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    spoof.bind(("127.0.0.1", 0))
+    spoof.settimeout(0.1)
+    stop = threading.Event()
+    mav = mavlink.MAVLink(None, 1, 1)
+
+    def answer() -> None:
+        while not stop.is_set():
+            try:
+                _data, addr = spoof.recvfrom(65535)
+            except (TimeoutError, OSError):
+                continue
+            hb = mavlink.MAVLink_heartbeat_message(
+                mavlink.MAV_TYPE_SUBMARINE, mavlink.MAV_AUTOPILOT_GENERIC, 0, 0, mavlink.MAV_STATE_STANDBY, 3
+            )
+            ack = mavlink.MAVLink_command_ack_message(400, mavlink.MAV_RESULT_ACCEPTED, 0, 0, 0, 0)
+            for msg in (hb, ack):
+                spoof.sendto(msg.pack(mav), addr)
+
+    t = threading.Thread(target=answer, daemon=True)
+    t.start()
+    key = tmp_path / "key"
+    key.write_text(bytes(range(1, 33)).hex())
+    try:
+        code = main(
+            ["--connect", f"udpout:127.0.0.1:{spoof.getsockname()[1]}", "--json", "--tlog-dir",
+             str(tmp_path / "tlogs"), "--timeout", "2", "--signing-key", str(key), "arm"]
+        )  # fmt: skip
+    finally:
+        stop.set()
+        t.join(timeout=2.0)
+        spoof.close()
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    # THEN it is no vehicle to it: an error, no ACCEPTED, and the reason names the unsigned packets
+    assert code == 2 and not out["ok"] and "ACCEPTED" not in json.dumps(out)
+    assert "not signed with our key" in out["error"] and "unsigned" in out["error"], out
