@@ -102,7 +102,7 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--signing-key", type=Path, help="sign with this key (32 bytes or 64 hex characters)")
     ap.add_argument(
         "--system-id",
-        type=int,
+        type=_system_id,
         default=None,
         help="our MAVLink system id (default: one of our own, drawn from 200-254 per session, so two "
         "ground stations do not share the ids every stock one has, 255)",
@@ -266,6 +266,17 @@ def _new_tlog(tlog_dir: Path) -> Path:
 #: The system ids a ground station draws its own from (255, the stock default, and below 200 are left to
 #: vehicles and other tools).
 OWN_SYSTEM_IDS = range(200, 255)
+
+
+def _system_id(text: str) -> int:
+    """argparse type: a MAVLink system id, 1-255 (a bad one is a one-line usage error, exit 2)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 1 <= value <= 255:
+        raise argparse.ArgumentTypeError(f"a MAVLink system id is 1-255, got {value}")
+    return value
 
 
 def own_system_id() -> int:

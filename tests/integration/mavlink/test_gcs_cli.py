@@ -440,3 +440,18 @@ def test_a_signing_ground_station_ignores_an_unsigned_spoofer_and_says_so(
     # THEN it is no vehicle to it: an error, no ACCEPTED, and the reason names the unsigned packets
     assert code == 2 and not out["ok"] and "ACCEPTED" not in json.dumps(out)
     assert "not signed with our key" in out["error"] and "unsigned" in out["error"], out
+
+
+@pytest.mark.parametrize("bad", ["300", "0", "x"])
+def test_a_bad_system_id_is_one_usage_line(bad: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main(["--connect", "udpout:127.0.0.1:9", "--system-id", bad, "arm"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exited.value.code == 2 and "--system-id" in err[-1] and "Traceback" not in "\n".join(err)
+
+
+def test_the_ground_station_draws_its_own_system_id() -> None:
+    from groundstation.__main__ import OWN_SYSTEM_IDS, own_system_id
+
+    ids = {own_system_id() for _ in range(200)}
+    assert ids <= set(OWN_SYSTEM_IDS) and len(ids) > 20 and 255 not in ids
