@@ -84,6 +84,7 @@ class VehicleLink:
         self._clock = clock
         self.store = store if store is not None else StateStore(config.resolved_state_dir())
         signed = bool(config.signing_key_file)
+        self._signing_save_failed = False
         self.transport = Transport(
             config,
             clock,
@@ -114,7 +115,6 @@ class VehicleLink:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
-    # ---- the loop's API (thread-safe, cheap) ----------------------------------------------------
     def _save_signing_timestamp(self, timestamp: int) -> None:
         """Persist a newer signing timestamp; a failure is logged (once) and the packet still used: a
         replay across a restart is then possible until the state directory is writable again."""
@@ -122,10 +122,11 @@ class VehicleLink:
             self.store.save_signing_timestamp(timestamp)
             self._signing_save_failed = False
         except OSError as exc:
-            if not getattr(self, "_signing_save_failed", False):
+            if not self._signing_save_failed:
                 log.error("signing timestamp not saved (%s): a replay across a restart is possible", exc)
             self._signing_save_failed = True
 
+    # ---- the loop's API (thread-safe, cheap) ----------------------------------------------------
     def take_requests(self) -> list[Request]:
         """The requests not taken yet, oldest first; answer each exactly once with :meth:`answer`."""
         return self.requests.take()

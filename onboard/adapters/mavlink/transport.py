@@ -103,7 +103,7 @@ class Transport:
         on_signing_advance: Callable[[int], None] | None = None,
     ) -> None:
         """``signing_floor`` / ``on_signing_advance``: the persisted newest signing timestamp accepted, and
-        where a newer one goes (:class:`~onboard.adapters.mavlink.wire.SigningVerifier`); the vehicle's own
+        where a newer one goes (:class:`~auv_common.mavlink_signing.SigningVerifier`); the vehicle's own
         outgoing timestamps start above the floor too."""
         self.config = config
         self._clock = clock
@@ -127,7 +127,7 @@ class Transport:
         self._budget = float(config.rx_budget_per_s)
         self._budget_t = clock()
         self._text_id = 0
-        self._route: Link | None = None  # set while send_to() encodes: the one destination
+        self._route: Link | None = None  # set while send(msg, link) encodes: the one destination
 
     # ---- lifecycle -----------------------------------------------------------------------------
     def open(self) -> None:
