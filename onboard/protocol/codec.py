@@ -35,6 +35,7 @@ REJECTION_REASONS: Final = (
     "wrong_crc",
     "repeated_counter",
     "jumping_counter",
+    "conflicting_sender",
     "non_finite",
     "out_of_range",
 )

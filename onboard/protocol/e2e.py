@@ -40,6 +40,11 @@ def frame_crc(frame_id: int, payload: bytes) -> int:
     return crc8_sae_j1850(header + bytes(payload[:CRC_BYTE_INDEX]))
 
 
+#: After two interleaved counter streams were seen on one id, this many frames in step from one stream alone
+#: end the distrust (two laps of the 4-bit counter).
+QUIET_FRAMES = 2 * COUNTER_MODULO
+
+
 @dataclass
 class CounterCheck:
     """Receiver-side alive-counter state for one message id.
@@ -47,10 +52,19 @@ class CounterCheck:
     ``max_delta`` is the largest accepted counter step (1 = no frame may be lost). A repeated counter
     (step 0) or a jump (step > max_delta) rejects the frame; after a jump the receiver re-synchronises on the
     new counter, so one lost frame costs one more rejected frame, not a permanent lock-out.
+
+    A second sender on the same id (valid CRC, its own counter) shows as two interleaved streams: a frame
+    that jumps from the last counter but continues the one before the last jump. That is counted as a
+    conflicting sender, and the id is then distrusted: every frame is rejected (``conflicting_sender``: a
+    sensor goes stale, a command stream stops, so the actuators' watchdog holds them neutral) until
+    :data:`QUIET_FRAMES` frames in a row come in step from one stream alone.
     """
 
     max_delta: int = 1
     last: int | None = None
+    before_jump: int | None = None  # the counter the last jump left behind
+    quiet_needed: int = 0  # > 0: distrusted, this many clean frames to go
+    conflicts: int = 0
 
     def check(self, counter: int) -> str | None:
         """Return None if the counter is acceptable, else the rejection reason; update the state."""
@@ -59,11 +73,21 @@ class CounterCheck:
             return None
         delta = (counter - self.last) % COUNTER_MODULO
         if delta == 0:
-            return "repeated_counter"
-        self.last = counter
+            return "repeated_counter" if not self.quiet_needed else self._distrusted(clean=False)
         if delta > self.max_delta:
-            return "jumping_counter"
-        return None
+            prior = self.before_jump
+            self.before_jump, self.last = self.last, counter
+            if prior is not None and 0 < (counter - prior) % COUNTER_MODULO <= self.max_delta:
+                self.conflicts += 1  # it continues the stream the previous jump left: two senders
+                self.quiet_needed = QUIET_FRAMES
+                return "conflicting_sender"
+            return "jumping_counter" if not self.quiet_needed else self._distrusted(clean=False)
+        self.last = counter
+        return self._distrusted(clean=True) if self.quiet_needed else None
+
+    def _distrusted(self, clean: bool) -> str:
+        self.quiet_needed = self.quiet_needed - 1 if clean else QUIET_FRAMES
+        return "conflicting_sender"
 
 
 @dataclass

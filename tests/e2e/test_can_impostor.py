@@ -1,7 +1,10 @@
-"""A second sender on the CAN bus (issue 12, item 3, first part): valid CRC and alive counter, FIN_CMD and
-PROP_CMD at 100 Hz, while the firmware is not armed. The bench's actuator node obeys ARMED commands only
-while the onboard's own heartbeat says it is live, so nothing moves; an impostor that also forges that
-heartbeat is what the E2E profile cannot stop (README: what E2E protects against)."""
+"""A second sender on the CAN bus (issue 12, item 3): valid CRC and alive counter.
+
+- FIN_CMD and PROP_CMD at 100 Hz while the firmware is not armed: the bench's actuator node obeys ARMED
+  commands only while the onboard's own heartbeat says it is live, so nothing moves; an impostor that also
+  forges that heartbeat is what the E2E profile cannot stop (README: what E2E protects against).
+- DEPTH = 25 m at 200 Hz next to the bench's genuine DEPTH: two interleaved counter streams on one id, seen
+  as a conflicting sender; the id is distrusted, so the impostor's value is never taken."""
 
 from __future__ import annotations
 
@@ -63,3 +66,43 @@ def test_an_impostors_commands_move_nothing_while_the_firmware_is_not_armed(tmp_
     # and one that forges a RUNNING heartbeat too is obeyed: the limit of E2E on a shared bus
     rps, rudder = _fly(tmp_path, m.MissionStateCode.RUNNING)
     assert rps > 20.0 and rudder > 0.25
+
+
+def test_an_impostor_interleaved_with_the_genuine_depth_sensor_is_a_conflict_not_a_depth(
+    tmp_path: Path,
+) -> None:
+    # GIVEN the bench (its depth sensor on the hub) and a listener, as the onboard listens to DEPTH
+    channel = f"ws://127.0.0.1:{free_port()}/"
+    codec = Codec()
+    with processes() as procs:
+        cmd = [sys.executable, "-m", "hil_sim", "run", "--channel", channel, "--duration", "8"]
+        procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        listen = BusPort(
+            open_bus(BusConfig(interface="remote", channel=channel), timeout_s=15.0),
+            time.monotonic,
+            [codec.frame_id(m.DepthMeas)],
+            codec,
+        )
+        impostor = BusPort(
+            open_bus(BusConfig(interface="remote", channel=channel), timeout_s=15.0), time.monotonic
+        )
+        try:
+            time.sleep(1.0)
+            before = [d.depth_m for d in listen.drain()]
+            # WHEN an impostor sends DEPTH = 25 m at 200 Hz for 2 s, with its own valid counter
+            depths: list[float] = []
+            t_end = time.monotonic() + 2.0
+            while time.monotonic() < t_end:
+                impostor.send(m.DepthMeas(25.0, 0.0))
+                depths.extend(d.depth_m for d in listen.drain())
+                time.sleep(0.005)
+            time.sleep(0.2)
+            depths.extend(d.depth_m for d in listen.drain())
+            rejected = dict(listen.receiver.rejected)
+        finally:
+            impostor.close()
+            listen.close()
+    # THEN the genuine depth was heard before, and the impostor's 25 m is never taken: the id is distrusted
+    assert before and max(before) < 5.0
+    assert sum(1 for d in depths if d > 20.0) <= 1, depths[:20]
+    assert rejected.get("conflicting_sender", 0) > 10, rejected

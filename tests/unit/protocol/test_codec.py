@@ -169,7 +169,7 @@ class _NanCodec(Codec):
         object.__setattr__(spec, "dbc", _Dbc())
 
 
-@pytest.mark.parametrize("reason", REJECTION_REASONS)
+@pytest.mark.parametrize("reason", [r for r in REJECTION_REASONS if r != "conflicting_sender"])
 def test_each_rejection_reason_is_counted_separately(reason: str) -> None:
     rx = _reject(reason)
     assert dict(rx.rejected) == {reason: 1}
@@ -246,3 +246,34 @@ def test_an_uncommitted_frame_keeps_its_counter_for_the_next_one() -> None:
     assert again == (fid, first)
     sender.commit(fid)
     assert sender.counters.peek(fid) == 1
+
+
+def test_a_second_sender_on_one_id_is_a_conflict_and_the_id_is_distrusted_until_one_stream_is_alone() -> None:
+    # GIVEN the genuine sender and an impostor with its own counter (valid CRC) on FIN_CMD, interleaved
+    genuine, impostor = FrameSender(CODEC), FrameSender(CODEC)
+    for _ in range(7):
+        impostor.encode(FinCmd(0.3, 0.0, 0.0))  # its counter runs 7 ahead
+    rx = FrameReceiver(CODEC)
+    got = [rx.receive(*genuine.encode(FinCmd(0.1, 0.0, 0.0)), 0.0)]
+    for _ in range(20):
+        got.append(rx.receive(*impostor.encode(FinCmd(0.3, 0.0, 0.0)), 0.0))
+        got.append(rx.receive(*genuine.encode(FinCmd(0.1, 0.0, 0.0)), 0.0))
+    # THEN after the first jump every frame is refused as a conflicting sender: neither stream gets through
+    assert got[0] is not None and all(m is None for m in got[1:])
+    assert rx.rejected["jumping_counter"] == 1 and rx.rejected["conflicting_sender"] == 39
+    # WHEN the impostor goes quiet THEN the genuine stream is trusted again after 32 frames in step
+    alone = [rx.receive(*genuine.encode(FinCmd(0.1, 0.0, 0.0)), 0.0) for _ in range(40)]
+    assert [m is not None for m in alone].index(True) == 32 and all(alone[32:])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.booleans(), min_size=1, max_size=200))
+def test_lost_frames_alone_are_never_a_conflict(lost: list[bool]) -> None:
+    # GIVEN one sender whose frames are lost at random (never reordered: CAN does not reorder)
+    sender, rx = FrameSender(CODEC), FrameReceiver(CODEC)
+    for drop in lost:
+        frame = sender.encode(FinCmd(0.1, 0.0, 0.0))
+        if not drop:
+            rx.receive(*frame, 0.0)
+    # THEN a loss costs at most the next frame, as before, and no conflict is ever claimed
+    assert rx.rejected["conflicting_sender"] == 0
