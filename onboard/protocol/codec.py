@@ -339,7 +339,7 @@ class FrameReceiver:
         check = self._counters.get(frame_id)
         if check is None:
             check = self._counters[frame_id] = CounterCheck(self.max_counter_delta)
-        reason = check.check(counter)
+        reason = check.check(counter, t_rx_s)
         if reason is not None:
             self.rejected[reason] += 1
             self.last_error = f"{type(msg).DBC_NAME}: {reason}"

@@ -8,6 +8,7 @@ CRC catches corruption and frames that were meant for another id.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 CRC_BYTE_INDEX = 7
@@ -40,9 +41,11 @@ def frame_crc(frame_id: int, payload: bytes) -> int:
     return crc8_sae_j1850(header + bytes(payload[:CRC_BYTE_INDEX]))
 
 
-#: After two interleaved counter streams were seen on one id, this many frames in step from one stream alone
-#: end the distrust (two laps of the 4-bit counter).
+#: After two interleaved counter streams were seen on one id, the distrust ends once this many frames came in
+#: step from one stream alone (two laps of the 4-bit counter) and no conflict was seen for QUIET_S seconds
+#: (a fast impostor sends many frames in step between two of a slow genuine sensor).
 QUIET_FRAMES = 2 * COUNTER_MODULO
+QUIET_S = 1.0
 
 
 @dataclass
@@ -57,7 +60,8 @@ class CounterCheck:
     that jumps from the last counter but continues the one before the last jump. That is counted as a
     conflicting sender, and the id is then distrusted: every frame is rejected (``conflicting_sender``: a
     sensor goes stale, a command stream stops, so the actuators' watchdog holds them neutral) until
-    :data:`QUIET_FRAMES` frames in a row come in step from one stream alone.
+    :data:`QUIET_FRAMES` frames in a row come in step from one stream alone and :data:`QUIET_S` passed
+    without a conflict (``t_s``: the receive time).
     """
 
     max_delta: int = 1
@@ -65,8 +69,9 @@ class CounterCheck:
     before_jump: int | None = None  # the counter the last jump left behind
     quiet_needed: int = 0  # > 0: distrusted, this many clean frames to go
     conflicts: int = 0
+    conflict_t_s: float = -math.inf  # when the last conflict was seen
 
-    def check(self, counter: int) -> str | None:
+    def check(self, counter: int, t_s: float = 0.0) -> str | None:
         """Return None if the counter is acceptable, else the rejection reason; update the state."""
         if self.last is None:
             self.last = counter
@@ -79,14 +84,17 @@ class CounterCheck:
             self.before_jump, self.last = self.last, counter
             if prior is not None and 0 < (counter - prior) % COUNTER_MODULO <= self.max_delta:
                 self.conflicts += 1  # it continues the stream the previous jump left: two senders
-                self.quiet_needed = QUIET_FRAMES
+                self.quiet_needed, self.conflict_t_s = QUIET_FRAMES, t_s
                 return "conflicting_sender"
             return "jumping_counter" if not self.quiet_needed else self._distrusted(clean=False)
         self.last = counter
-        return self._distrusted(clean=True) if self.quiet_needed else None
+        if self.quiet_needed > 1 or (self.quiet_needed == 1 and t_s - self.conflict_t_s < QUIET_S):
+            return self._distrusted(clean=True)
+        self.quiet_needed = 0
+        return None
 
     def _distrusted(self, clean: bool) -> str:
-        self.quiet_needed = self.quiet_needed - 1 if clean else QUIET_FRAMES
+        self.quiet_needed = max(self.quiet_needed - 1, 1) if clean else QUIET_FRAMES
         return "conflicting_sender"
 
 
