@@ -49,7 +49,6 @@ class SigningVerifier:
         self._streams: dict[tuple[int, int, int], int] = {}
         self.floor = floor
         self.accepted = floor  # the newest timestamp accepted (and handed to on_advance)
-        self.timestamp = max(signing_timestamp_now(), floor)
         self._on_advance = on_advance
 
     def verify(self, frame: bytes, stats: SigningCounters) -> bool:
@@ -66,7 +65,7 @@ class SigningVerifier:
         ts = tlow + (thigh << 32)
         stream = (link_id, frame[5], frame[6])
         last = self._streams.get(stream)
-        now = max(self.timestamp, signing_timestamp_now())
+        now = max(self.accepted, signing_timestamp_now())  # the local time: the clock, or what was seen
         if (
             ts <= self.floor
             or (last is not None and ts <= last)
@@ -79,5 +78,4 @@ class SigningVerifier:
                 self._on_advance(ts)  # persisted before the packet is used
             self.accepted = ts
         self._streams[stream] = ts
-        self.timestamp = max(self.timestamp, ts)
         return True

@@ -136,17 +136,6 @@ def load_hil_config(path: str | Path | None, overrides: dict[str, dict[str, Any]
 #: The onboard's heartbeat (1 Hz and at every change) is stale after this (s): ARMED commands do nothing then.
 ONBOARD_HEARTBEAT_TIMEOUT_S = 3.0
 
-#: Onboard mission states in which its actuators may move (``Autopilot.actuators_live``; COMPLETE for the
-#: loiter end action: the surface one commands SAFE itself).
-LIVE_ONBOARD_STATES = frozenset(
-    {
-        m.MissionStateCode.ARMED,
-        m.MissionStateCode.RUNNING,
-        m.MissionStateCode.HOLD,
-        m.MissionStateCode.COMPLETE,
-    }
-)
-
 
 @dataclass
 class ActuatorNode:
@@ -154,7 +143,7 @@ class ActuatorNode:
 
     SAFE: fins neutral, propeller off, and a latched failsafe is cleared (the onboard acknowledged it).
     ARMED: follow the commands, but only while the onboard's own heartbeat (ONBOARD_HEARTBEAT, sent at every
-    change of its mission state and each second) says it is in a live state (:data:`LIVE_ONBOARD_STATES`)
+    change of its mission state and each second) says it is in a live state (``messages.LIVE_MISSION_STATES``)
     and is younger than ``heartbeat_timeout_periods``; otherwise as SAFE (a second sender of valid command
     frames while the onboard is IDLE moves nothing; counted in ``refused_periods``). ABORT: fins as
     commanded, propeller off.
@@ -183,7 +172,7 @@ class ActuatorNode:
     def onboard_live(self) -> bool:
         """The onboard's latest heartbeat is recent and says its actuators may move."""
         return (
-            self.onboard_state in LIVE_ONBOARD_STATES
+            self.onboard_state in m.LIVE_MISSION_STATES
             and self.onboard_age_periods <= self.heartbeat_timeout_periods
         )
 

@@ -79,11 +79,9 @@ def compute_plan(request: PlanRequest) -> Path:
             radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
             try:  # wider turns first, with no tighter fallback of their own: the nominal radius comes next
                 widened = replace(
-                    nominal,
+                    nominal.without_fallbacks(),
                     turning_radius_m=radius,
                     goal_run_in_m=nominal.goal_run_in_m * radius / nominal.turning_radius_m,
-                    min_turning_radius_m=0.0,
-                    min_obstacle_margin_m=None,
                 )
                 return to_goal(widened)
             except PlannerError:

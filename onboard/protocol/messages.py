@@ -32,6 +32,14 @@ class MissionStateCode(IntEnum):
     COMPLETE = 5
 
 
+#: The bus contract's rule for the actuator node: the onboard states in which its ARMED commands are obeyed
+#: (the onboard's ``Autopilot.actuators_live``; in COMPLETE only with the loiter end action, the surface
+#: one commands SAFE itself).
+LIVE_MISSION_STATES: frozenset[MissionStateCode] = frozenset(
+    {MissionStateCode.ARMED, MissionStateCode.RUNNING, MissionStateCode.HOLD, MissionStateCode.COMPLETE}
+)
+
+
 class NodeHealth(IntEnum):
     """node_state of the actuator and sensor heartbeats."""
 

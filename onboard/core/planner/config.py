@@ -154,4 +154,9 @@ class PlannerConfig:
     def tightest(self) -> PlannerConfig:
         """The last of :attr:`fallbacks`, the tightest a plan may fall back to (itself when there is none):
         what the mission validator judges a goal's clearance with."""
-        return self.fallbacks[-1] if self.fallbacks else self
+        return (self.fallbacks or (self,))[-1]
+
+    def without_fallbacks(self) -> PlannerConfig:
+        """This configuration with no :attr:`fallbacks` of its own (e.g. the wide turns in a current, after
+        which the nominal radius and its fallbacks come)."""
+        return dataclasses.replace(self, min_turning_radius_m=0.0, min_obstacle_margin_m=None)
