@@ -422,14 +422,15 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
     bench = Bench(cfg)
     hub: BenchHub | None = None
     codec = Codec()
+    listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+    filters = None if cfg.bus.record else listen  # a recording bench hears the whole bus
     if bus_override is not None:
         bus = bus_override
     elif cfg.bus.interface == "remote" and cfg.bench.host_hub:
         hub = BenchHub(cfg.bus.channel, cfg.bus.hub_channel)
-        bus = hub.local_bus()
+        bus = hub.client(filters)
     else:
-        bus = open_bus(cfg.bus, stop=stop)
-    listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+        bus = open_bus(cfg.bus, stop=stop, listen_ids=filters)
     port = BusPort(bus, time.monotonic, listen, codec, record=cfg.bus.record or None)
     writer = None
     log_file = None

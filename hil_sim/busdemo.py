@@ -41,9 +41,8 @@ def run_bus_demo(count: int = 200, rate_hz: float = 100.0, timeout_s: float = 30
     hub = BenchHub("ws://127.0.0.1:0/", f"busdemo-{time.monotonic_ns()}")
     url = f"ws://127.0.0.1:{hub.port}/"
     codec = Codec()
-    port = BusPort(
-        hub.local_bus(), time.monotonic, [codec.frame_id(m) for m in (FinCmd, PropCmd, SyncAck)], codec
-    )
+    listen = [codec.frame_id(m) for m in (FinCmd, PropCmd, SyncAck)]
+    port = BusPort(hub.client(listen), time.monotonic, listen, codec)
     peer = subprocess.Popen(
         [sys.executable, "-m", "onboard.bench.busdemo", "echo", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,

@@ -59,7 +59,7 @@ def main(argv: list[str]) -> int:
     except (ConfigError, ValueError, OSError) as exc:
         print(f"auv-hil replay: {exc}", file=sys.stderr)
         return 2
-    bus = hub.local_bus()
+    bus = hub.client(listen_ids=())  # sends only
     try:
         sent = replay(args.file, bus, args.speed, ids, threading.Event())
     finally:

@@ -105,6 +105,8 @@ class LoopStats:
     ticks: int = 0
     overruns: int = 0
     consecutive_overruns: int = 0
+    #: the longest run of overruns in a row so far
+    max_consecutive_overruns: int = 0
     missed_deadlines: int = 0
     encode_errors: int = 0
     #: frames not sent because they did not encode, by DBC message name
@@ -289,6 +291,9 @@ class ControlLoop:
             if self.clock() > next_s:
                 self.stats.overruns += 1
                 self.stats.consecutive_overruns += 1
+                self.stats.max_consecutive_overruns = max(
+                    self.stats.max_consecutive_overruns, self.stats.consecutive_overruns
+                )
                 self.autopilot.note_overruns(self.stats.consecutive_overruns)
                 while next_s < self.clock():  # skip the deadlines already missed, keep the phase
                     next_s += period

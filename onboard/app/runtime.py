@@ -321,8 +321,11 @@ def run(
         autopilot.take_notes()  # the start-up mission is no news for a ground station
     if autostart:
         autopilot.request_autostart()
+    codec = Codec()
+    listen = [codec.frame_id(c) for c in LISTEN]
     try:
-        bus = open_bus(cfg.bus, stop=stop)
+        # acceptance filters: other ids never reach this process (a recording node hears the whole bus)
+        bus = open_bus(cfg.bus, stop=stop, listen_ids=None if cfg.bus.record else listen)
     except BusUnavailable:
         if link is not None:
             link.stop()
@@ -330,9 +333,8 @@ def run(
             return 0
         raise
     lockstep = cfg.loop.time_source == "lockstep"
-    codec = Codec()
     clock = time.monotonic
-    port = BusPort(bus, clock, [codec.frame_id(c) for c in LISTEN], codec, record=cfg.bus.record or None)
+    port = BusPort(bus, clock, listen, codec, record=cfg.bus.record or None)
     loop = ControlLoop(port, autopilot, cfg.loop)
     if link is not None:
         _bridge(loop, autopilot, link)
@@ -385,6 +387,8 @@ def _summary(loop: ControlLoop, autopilot: Autopilot) -> dict[str, Any]:
     return {
         "ticks": loop.stats.ticks,
         "overruns": loop.stats.overruns,
+        "max_consecutive_overruns": loop.stats.max_consecutive_overruns,
+        "drains_at_budget": loop.port.drain_capped,
         "missed_deadlines": loop.stats.missed_deadlines,
         "encode_errors": loop.stats.encode_errors,
         "frames_rejected": dict(loop.port.receiver.rejected),

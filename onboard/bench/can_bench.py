@@ -41,10 +41,10 @@ def _codec_cost_us(n: int) -> dict[str, float]:
 
 
 def _latency(rate_hz: float, count: int) -> dict[str, float]:
-    """One-way latency bench (hub host, in-process virtual bus) -> peer process (remote client)."""
+    """One-way latency through the hub (its own process): this process (a client) -> a peer process."""
     hub = BenchHub("ws://127.0.0.1:0/", f"canbench-{time.monotonic_ns()}")
     url = f"ws://127.0.0.1:{hub.port}/"
-    port = BusPort(hub.local_bus(), time.monotonic)
+    port = BusPort(hub.client(listen_ids=()), time.monotonic)  # sends only
     peer = subprocess.Popen(
         [sys.executable, "-m", "onboard.bench.busdemo", "record", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,

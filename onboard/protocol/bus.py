@@ -16,17 +16,21 @@ environment fallbacks are never consulted.
 from __future__ import annotations
 
 import ipaddress
+import json
 import logging
 import re
 import socket
 import subprocess
+import sys
 import threading
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, Literal
 from urllib.parse import urlparse
 
 import can
+from can.typechecking import CanFilter
 
 from auv_common.config import ConfigError, require
 
@@ -126,7 +130,22 @@ class BusUnavailable(Exception):
     """The bus could not be opened before the caller gave up."""
 
 
-def _open_once(cfg: BusConfig) -> can.BusABC:
+def acceptance_filters(listen_ids: Iterable[int] | None) -> list[CanFilter] | None:
+    """python-can ``can_filters`` that pass exactly the standard ids ``listen_ids`` (None: every frame).
+
+    No ids (a node that only sends) gets a filter only extended id 0 passes: nothing on this bus, which uses
+    standard ids only (python-can reads an empty filter list as "everything", and the hub would then queue
+    every frame for a client that never reads).
+    """
+    if listen_ids is None:
+        return None
+    ids = sorted(set(listen_ids))
+    if not ids:
+        return [{"can_id": 0, "can_mask": 0x1FFFFFFF, "extended": True}]
+    return [{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids]
+
+
+def _open_once(cfg: BusConfig, filters: list[CanFilter] | None) -> can.BusABC:
     if cfg.interface == "virtual":
         from can.interfaces.virtual import VirtualBus
 
@@ -134,7 +153,8 @@ def _open_once(cfg: BusConfig) -> can.BusABC:
     if cfg.interface == "remote":
         from can_remote import RemoteBus
 
-        bus: Any = RemoteBus(cfg.channel)
+        # The filters travel in the bus request: the hub applies them, other ids never reach this process.
+        bus: Any = RemoteBus(cfg.channel, can_filters=filters)
         # python-can-remote leaves Nagle on for the client socket: small frames would wait for ACKs.
         bus.socket.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         remote: can.BusABC = bus
@@ -142,7 +162,7 @@ def _open_once(cfg: BusConfig) -> can.BusABC:
     if cfg.interface == "socketcan":
         from can.interfaces.socketcan import SocketcanBus
 
-        return SocketcanBus(channel=cfg.channel)
+        return SocketcanBus(channel=cfg.channel, can_filters=filters)  # filtered in the kernel
     check_multicast_route_via_lo(cfg.channel)
     from can.interfaces.udp_multicast import UdpMulticastBus
 
@@ -150,19 +170,29 @@ def _open_once(cfg: BusConfig) -> can.BusABC:
 
 
 def open_bus(
-    cfg: BusConfig, stop: threading.Event | None = None, timeout_s: float | None = None
+    cfg: BusConfig,
+    stop: threading.Event | None = None,
+    timeout_s: float | None = None,
+    listen_ids: Iterable[int] | None = None,
 ) -> can.BusABC:
     """Open the configured bus, waiting for it if it is not there yet.
+
+    ``listen_ids``: the standard ids this node receives, as acceptance filters where they are applied
+    outside this process: in the hub (``remote``) and in the kernel (``socketcan``), so a flood of other
+    ids costs this process nothing. In-process buses (``virtual``, ``udp_multicast``) leave them to the
+    port's receiver: python-can's software filter ends a non-blocking ``recv`` at the first frame it drops,
+    which would cut every drain short. None: every frame.
 
     Retries every 0.2 s, logging one line every ``cfg.retry_log_interval_s``, until the bus opens, ``stop``
     is set or ``timeout_s`` passes (then :class:`BusUnavailable`). A configuration error (e.g. a multicast
     group not routed via ``lo``) raises :class:`ConfigError` at once.
     """
+    filters = acceptance_filters(listen_ids)
     t0 = time.monotonic()
     next_log = t0
     while True:
         try:
-            return _open_once(cfg)
+            return _open_once(cfg, filters)
         except ConfigError:
             raise
         except (OSError, can.CanError, ConnectionError, ValueError) as exc:
@@ -179,30 +209,60 @@ def open_bus(
 
 
 class BenchHub:
-    """The bench's python-can-remote hub: a websocket server on loopback joined to an in-process virtual bus.
+    """The bench's python-can-remote hub, run as a process of its own (:mod:`onboard.protocol.hub`).
 
-    Remote clients (other processes) and the hosting process (through :meth:`local_bus`, a ``virtual`` bus on
-    the same channel) all hear each other.
+    A websocket server on loopback whose clients all hear each other; the hosting program joins it like any
+    other node, through :meth:`client`. Apart from the simulation, a flood keeps the hub busy, not the bench.
     """
 
-    def __init__(self, channel_url: str, hub_channel: str) -> None:
-        from can_remote import RemoteServer
-
+    def __init__(self, channel_url: str, hub_channel: str, start_timeout_s: float = 20.0) -> None:
         host, port = remote_endpoint(channel_url)
+        self.host = host
         self.hub_channel = hub_channel
-        # The server opens one virtual bus on hub_channel per connected client.
-        self.server: Any = RemoteServer(host=host, port=port, interface="virtual", channel=hub_channel)
-        self.port: int = self.server.server_port
-        self._thread = threading.Thread(target=self.server.serve_forever, name="can-hub", daemon=True)
-        self._thread.start()
-        log.info("bench CAN hub listening on ws://%s:%d/ (channel %s)", host, self.port, hub_channel)
+        cmd = [sys.executable, "-m", "onboard.protocol.hub", "--host", host, "--port", str(port)]
+        self._proc = subprocess.Popen(
+            [*cmd, "--channel", hub_channel],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        line = _read_line(self._proc, start_timeout_s)
+        try:
+            answer = json.loads(line) if line else {}
+        except json.JSONDecodeError:
+            answer = {}
+        if "port" not in answer:
+            self.close()
+            reason = answer.get("error") or f"no answer within {start_timeout_s:.0f} s ({line!r})"
+            raise OSError(f"CAN hub on {host}:{port} did not start: {reason}")
+        self.port: int = int(answer["port"])
+        self.url = f"ws://{host}:{self.port}/"
+        log.info("bench CAN hub listening on %s (channel %s, pid %d)", self.url, hub_channel, self._proc.pid)
 
-    def local_bus(self) -> can.BusABC:
-        from can.interfaces.virtual import VirtualBus
-
-        return VirtualBus(channel=self.hub_channel, receive_own_messages=False)
+    def client(self, listen_ids: Iterable[int] | None = None, timeout_s: float = 10.0) -> can.BusABC:
+        """A bus joined to the hub (acceptance filters ``listen_ids``, None: every frame)."""
+        cfg = BusConfig(interface="remote", channel=self.url)
+        return open_bus(cfg, timeout_s=timeout_s, listen_ids=listen_ids)
 
     def close(self) -> None:
-        self.server.shutdown()
-        self.server.server_close()
-        self._thread.join(timeout=2.0)
+        proc = self._proc
+        if proc.poll() is None:
+            if proc.stdin is not None:
+                proc.stdin.close()  # the hub's signal to stop
+            try:
+                proc.wait(timeout=3.0)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=3.0)
+        if proc.stdout is not None:
+            proc.stdout.close()
+
+
+def _read_line(proc: subprocess.Popen[str], timeout_s: float) -> str:
+    """The first stdout line of ``proc`` within ``timeout_s`` ("" if none)."""
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.append(proc.stdout.readline() if proc.stdout else ""))
+    reader.daemon = True
+    reader.start()
+    reader.join(timeout_s)
+    return lines[0].strip() if lines else ""

@@ -13,13 +13,20 @@ from onboard.protocol.messages import BusMessage
 
 log = logging.getLogger(__name__)
 
+#: Frames one drain reads at most: a tick's receive budget. The bench's sensors send a few frames per 20 Hz
+#: tick (AHRS, depth, DVL, fix, status, heartbeats); 256 leaves room for a burst after a stall and bounds
+#: the time a flood of listened ids can take from one tick.
+DRAIN_BUDGET_FRAMES = 256
+
 
 class BusPort:
     """Send and receive :mod:`onboard.protocol.messages` over a python-can bus.
 
     ``clock`` gives the receive time stamped into ``t_sample_s`` (the monotonic clock in real time, the
-    simulated time in lock-step). ``listen_ids`` limits the ids this node decodes. ``record`` writes every
-    frame sent and received to a ``.blf``/``.asc`` log with python-can's loggers.
+    simulated time in lock-step). ``listen_ids`` limits the ids this node decodes (open the bus with the same
+    ids as acceptance filters, :func:`onboard.protocol.bus.open_bus`, so the others never arrive). ``record``
+    writes every frame sent and received to a ``.blf``/``.asc`` log with python-can's loggers.
+    ``drain_budget_frames``: the most frames one :meth:`drain` reads (a tick's receive budget).
     """
 
     def __init__(
@@ -29,8 +36,13 @@ class BusPort:
         listen_ids: Iterable[int] | None = None,
         codec: Codec | None = None,
         record: str | Path | None = None,
+        drain_budget_frames: int = DRAIN_BUDGET_FRAMES,
     ) -> None:
+        if drain_budget_frames < 1:
+            raise ValueError(f"drain_budget_frames must be >= 1, got {drain_budget_frames}")
         self.bus = bus
+        self.drain_budget_frames = drain_budget_frames
+        self.drain_capped = 0
         self.codec = codec or Codec()
         self.clock = clock
         self.sender = FrameSender(self.codec)
@@ -63,16 +75,21 @@ class BusPort:
             return None
         return self._accept(frame)
 
-    def drain(self) -> list[BusMessage]:
-        """Every message already waiting, without blocking."""
+    def drain(self, budget_frames: int | None = None) -> list[BusMessage]:
+        """The messages already waiting, without blocking: at most ``budget_frames`` frames read
+        (default :attr:`drain_budget_frames`), so a flood cannot hold the caller's tick; the rest wait for
+        the next call (:attr:`drain_capped` counts the calls that stopped at the budget)."""
         out: list[BusMessage] = []
-        while True:
+        budget = self.drain_budget_frames if budget_frames is None else budget_frames
+        for _ in range(budget):
             frame = self.bus.recv(0.0)
             if frame is None:
                 return out
             msg = self._accept(frame)
             if msg is not None:
                 out.append(msg)
+        self.drain_capped += 1
+        return out
 
     def _accept(self, frame: can.Message) -> BusMessage | None:
         if self.recorder is not None:

@@ -1,0 +1,115 @@
+"""The bench's CAN hub as a process of its own: ``python -m onboard.protocol.hub --port P --channel C``.
+
+A python-can-remote ``RemoteServer`` on loopback whose clients all join one in-hub ``virtual`` channel. It
+runs apart from the simulation (:class:`onboard.protocol.bus.BenchHub` starts it), so a flood that keeps
+the hub busy takes a core of its own, not the bench's GIL. Each client's acceptance filters
+(``can_filters`` in its bus request, :func:`onboard.protocol.bus.open_bus`) are applied inside the hub, so
+frames a node does not listen to never reach its process (what a CAN controller's acceptance filter does).
+
+Protocol with the parent: one line ``{"port": P}`` on stdout once listening; the hub stops when its stdin
+closes (the parent ended, however it ended) or on SIGTERM. SIGINT is ignored: Ctrl-C in a terminal reaches
+the whole process group and the parent decides.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import queue
+import signal
+import sys
+import threading
+import time
+from typing import Any, ClassVar
+
+import can
+from can.interfaces.virtual import VirtualBus
+
+from onboard.protocol.bus import LOOPBACK_HOSTS
+
+#: Frames queued in the hub for one client at most; beyond, a frame is dropped for that client and counted
+#: (a CAN controller's receive FIFO overrun), never queued without bound for a client that does not read.
+CLIENT_QUEUE_FRAMES = 4096
+#: The python-can interface name of :class:`AcceptanceVirtualBus` (an entry point in pyproject.toml).
+INTERFACE = "isimi100_hub"
+
+
+class AcceptanceVirtualBus(VirtualBus):
+    """python-can's virtual bus with the receiver's acceptance filters applied when a frame is sent.
+
+    The hub's clients each get one (python-can-remote opens a bus per client with the client's
+    ``can_filters``); a frame is copied only into the queues of the clients whose filters pass it, so a
+    flood of ids nobody listens to costs one filter check per client, not a copy, a queue and a send.
+    """
+
+    _by_queue: ClassVar[dict[int, AcceptanceVirtualBus]] = {}
+    dropped: ClassVar[int] = 0
+
+    def __init__(self, channel: Any = "channel-0", **kwargs: Any) -> None:
+        kwargs.setdefault("rx_queue_size", CLIENT_QUEUE_FRAMES)
+        super().__init__(channel=channel, **kwargs)
+        self._by_queue[id(self.queue)] = self
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self._check_if_open()
+        timestamp = time.time()
+        for bus_queue in list(self.channel):
+            if bus_queue is self.queue:
+                continue
+            receiver = self._by_queue.get(id(bus_queue))
+            if receiver is not None and not receiver._matches_filters(msg):
+                continue
+            frame = copy.copy(msg)
+            frame.timestamp = timestamp
+            frame.channel = self.channel_id
+            frame.is_rx = True
+            try:
+                bus_queue.put_nowait(frame)
+            except queue.Full:
+                AcceptanceVirtualBus.dropped += 1
+
+    def shutdown(self) -> None:
+        self._by_queue.pop(id(self.queue), None)
+        super().shutdown()
+
+
+def _tell_parent(answer: dict[str, Any]) -> None:
+    sys.stdout.write(json.dumps(answer) + "\n")
+    sys.stdout.flush()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m onboard.protocol.hub", description=__doc__)
+    parser.add_argument("--host", default="127.0.0.1", choices=LOOPBACK_HOSTS)
+    parser.add_argument("--port", type=int, default=0, help="TCP port (0: a free one, printed)")
+    parser.add_argument("--channel", required=True, help="the in-hub virtual channel")
+    args = parser.parse_args(argv)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from can_remote import RemoteServer
+
+    try:
+        server = RemoteServer(host=args.host, port=args.port, interface=INTERFACE, channel=args.channel)
+    except OSError as exc:
+        _tell_parent({"error": f"cannot listen on {args.host}:{args.port}: {exc.strerror or exc}"})
+        return 3
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda _s, _f: done.set())
+    serving = threading.Thread(target=server.serve_forever, name="can-hub", daemon=True)
+    serving.start()
+    _tell_parent({"port": server.server_port})
+
+    def parent_watch() -> None:
+        sys.stdin.read()  # returns at EOF: the parent closed the pipe or ended
+        done.set()
+
+    watch = threading.Thread(target=parent_watch, name="parent-watch", daemon=True)
+    watch.start()
+    done.wait()
+    server.shutdown()
+    server.server_close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
