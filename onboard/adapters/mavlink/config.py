@@ -72,7 +72,8 @@ class MavlinkConfig:
     state_dir: str = ""  # empty = default_state_dir()
     signing_key_file: str = ""  # empty = signing off; 32 raw bytes or 64 hex characters
     signing_link_id: int = 0
-    rx_budget_per_s: int = 5000  # datagrams parsed per second at most; the rest are shed (counted)
+    rx_peer_per_s: int = 500  # datagrams (TCP: messages) parsed per second per known peer; the rest shed
+    rx_strangers_per_s: int = 200  # the same, shared by every address not (yet) a known peer
 
     def __post_init__(self) -> None:
         require(len(self.endpoints) >= 1 or not self.enabled, "endpoints: at least one when enabled")
@@ -116,8 +117,10 @@ class MavlinkConfig:
         require(
             0 <= self.signing_link_id <= 255, f"signing_link_id must be 0..255, got {self.signing_link_id}"
         )
+        require(10 <= self.rx_peer_per_s <= 1_000_000, f"rx_peer_per_s out of range: {self.rx_peer_per_s}")
         require(
-            10 <= self.rx_budget_per_s <= 1_000_000, f"rx_budget_per_s out of range: {self.rx_budget_per_s}"
+            10 <= self.rx_strangers_per_s <= 1_000_000,
+            f"rx_strangers_per_s out of range: {self.rx_strangers_per_s}",
         )
 
     @classmethod

@@ -2,12 +2,19 @@
 
 :class:`Transport` owns the endpoint sockets (``udpout``, ``udpin``, ``tcpin`` and its connections), decodes
 every UDP datagram on its own (:func:`onboard.adapters.mavlink.wire.decode_datagram`) with the signature
-checked before the timestamp, sheds datagrams beyond ``rx_budget_per_s`` unparsed (counted), learns the
-peers that speak to it (at most :data:`MAX_PEERS` per socket, forgotten after :data:`PEER_EXPIRY_S`) and
-sends every message to every peer, or a reply to the one link its request came over
+checked before the timestamp, learns the peers that speak to it (at most :data:`MAX_PEERS` per socket,
+first come, kept while they speak, forgotten after :data:`PEER_EXPIRY_S`) and sends every message to every
+peer, or a reply to the one link its request came over
 (:class:`~onboard.adapters.mavlink.peers.Sender` carries it: a transfer belongs to one peer, not to a pair
 of ids two ground stations may share). :meth:`Transport.wake` (any thread) interrupts
 :meth:`Transport.wait`.
+
+Receive shares (floods starve no one): every known peer (a learned address, the ``udpout`` target, each TCP
+connection) has its own token bucket of ``rx_peer_per_s`` and all other addresses share one of
+``rx_strangers_per_s``; a datagram beyond its sender's share is dropped unparsed (counted as ``shed``).
+A socket is read until empty, at most :data:`READ_BATCH` datagrams per wake-up, so the kernel's buffer does
+not overflow (which would drop the genuine ground station's datagrams with the flood's) and the timers keep
+running between batches.
 
 STATUSTEXT: :meth:`Transport.statustext` maps a core :class:`~onboard.core.commands.Severity` to
 MAV_SEVERITY (the one table, :data:`MAV_SEVERITY`) and splits a text longer than 50 bytes into chunks with
@@ -27,6 +34,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common.token_bucket import TokenBucket
 from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key, parse_endpoint
 from onboard.adapters.mavlink.peers import Addr, Link, Sender
 from onboard.adapters.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
@@ -36,6 +44,9 @@ log = logging.getLogger(__name__)
 
 PEER_EXPIRY_S = 30.0
 MAX_PEERS = 16
+READ_BATCH = 256
+#: A share's burst: this many seconds of its rate at once.
+SHARE_BURST_S = 0.2
 STATUSTEXT_LEN = 50
 OnMessage = Callable[[mavlink.MAVLink_message, Sender, float], None]
 
@@ -76,6 +87,8 @@ class _Socket:
     sock: socket.socket
     fixed: Addr | None = None
     peers: dict[Addr, float] = field(default_factory=dict)  # learned address -> last rx (monotonic)
+    shares: dict[Addr, TokenBucket] = field(default_factory=dict)  # learned address -> its receive share
+    share: TokenBucket | None = None  # the share of the fixed address (udpout) or of the TCP connection
     stream_parser: Any = None  # for TCP connections
     server: bool = False
     serial: int = field(default_factory=lambda: next(_serials))
@@ -124,8 +137,7 @@ class Transport:
         self._selector: selectors.BaseSelector | None = None
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
-        self._budget = float(config.rx_budget_per_s)
-        self._budget_t = clock()
+        self._strangers = self._new_share(config.rx_strangers_per_s)
         self._text_id = 0
         self._route: Link | None = None  # set while send(msg, link) encodes: the one destination
 
@@ -150,7 +162,7 @@ class Transport:
                     s = _Socket(kind, sock)
                 else:
                     sock.bind(("0.0.0.0", 0))
-                    s = _Socket(kind, sock, fixed=(host, port))
+                    s = _Socket(kind, sock, fixed=(host, port), share=self._peer_share())
                 sock.setblocking(False)
             self._sockets.append(s)
             sel.register(s.sock, selectors.EVENT_READ, s)
@@ -214,14 +226,21 @@ class Transport:
         except OSError:
             pass
 
-    def _take_budget(self, now: float) -> bool:
-        rate = float(self.config.rx_budget_per_s)
-        self._budget = min(rate * 0.2, self._budget + (now - self._budget_t) * rate)
-        self._budget_t = now
-        if self._budget < 1.0:
-            return False
-        self._budget -= 1.0
-        return True
+    @staticmethod
+    def _new_share(rate_per_s: int) -> TokenBucket:
+        return TokenBucket(float(rate_per_s), max(1.0, rate_per_s * SHARE_BURST_S))
+
+    def _peer_share(self) -> TokenBucket:
+        return self._new_share(self.config.rx_peer_per_s)
+
+    def _share_of(self, s: _Socket, addr: Addr) -> tuple[TokenBucket, bool]:
+        """The receive share a datagram from ``addr`` spends, and whether it is a known peer's."""
+        if addr == s.fixed and s.share is not None:
+            return s.share, True
+        share = s.shares.get(addr)
+        if share is not None:
+            return share, True
+        return self._strangers, False
 
     def _dispatch(self, msg: mavlink.MAVLink_message, now: float, link: Link) -> None:
         try:
@@ -238,7 +257,7 @@ class Transport:
             conn.setblocking(False)
             parser = mavlink.MAVLink(None)
             parser.robust_parsing = True
-            c = _Socket("tcpconn", conn, stream_parser=parser)
+            c = _Socket("tcpconn", conn, stream_parser=parser, share=self._peer_share())
             self._sockets.append(c)
             assert self._selector is not None
             self._selector.register(conn, selectors.EVENT_READ, c)
@@ -246,7 +265,7 @@ class Transport:
         if s.kind == "tcpconn":
             self._read_tcp(s)
             return
-        for _ in range(256):  # bounded per wake-up so timers keep running under a flood
+        for _ in range(READ_BATCH):  # bounded per wake-up so timers keep running under a flood
             try:
                 data, addr = s.sock.recvfrom(65535)
             except (BlockingIOError, InterruptedError):
@@ -254,8 +273,10 @@ class Transport:
             except OSError:
                 return
             now = self._clock()
-            if not self._take_budget(now):
+            share, known = self._share_of(s, addr)
+            if not share.take(now):
                 self.rx.shed += 1
+                self.rx.shed_from_peers += known
                 continue
             for msg, _frame in decode_datagram(data, self.rx, self._verifier):
                 self._learn(s, addr, now)
@@ -277,6 +298,10 @@ class Transport:
         now = self._clock()
         msgs = s.stream_parser.parse_buffer(data) or []
         for msg in msgs:
+            if s.share is not None and not s.share.take(now):
+                self.rx.shed += 1
+                self.rx.shed_from_peers += 1
+                continue
             if msg.get_type() == "BAD_DATA":
                 self.rx.malformed += 1
                 continue
@@ -287,12 +312,25 @@ class Transport:
             self._dispatch(msg, now, (s.serial, None))
 
     def _learn(self, s: _Socket, addr: Addr, now: float) -> None:
+        """Remember ``addr`` as a peer (first come, kept while it speaks: a full table of live peers is
+        never emptied for a newcomer, so a flood of new addresses cannot push a ground station out)."""
         if addr == s.fixed:
             return
-        if addr not in s.peers and len(s.peers) >= MAX_PEERS:
-            oldest = min(s.peers, key=lambda a: s.peers[a])
-            del s.peers[oldest]
+        if addr not in s.peers:
+            if len(s.peers) >= MAX_PEERS:
+                self._forget_expired(s, now)
+            if len(s.peers) >= MAX_PEERS:
+                self.rx.peers_refused += 1
+                return
+            s.shares[addr] = self._peer_share()
         s.peers[addr] = now
+
+    @staticmethod
+    def _forget_expired(s: _Socket, now: float) -> None:
+        for addr, last in list(s.peers.items()):
+            if now - last > PEER_EXPIRY_S:
+                del s.peers[addr]
+                s.shares.pop(addr, None)
 
     # ---- send ----------------------------------------------------------------------------------
     def _send_raw(self, buf: bytes) -> None:
@@ -307,10 +345,8 @@ class Transport:
                 if s.kind == "tcpconn":
                     s.sock.send(buf)
                     continue
-                for addr, last in list(s.peers.items()):
-                    if now - last > PEER_EXPIRY_S:
-                        del s.peers[addr]
-                        continue
+                self._forget_expired(s, now)
+                for addr in s.peers:
                     s.sock.sendto(buf, addr)
                 if s.fixed is not None:
                     s.sock.sendto(buf, s.fixed)

@@ -39,7 +39,9 @@ class RxStats:
     unsigned_rejected: int = 0
     bad_signature: int = 0
     old_timestamp: int = 0
-    shed: int = 0  # datagrams dropped unparsed because the receive budget was used up
+    shed: int = 0  # datagrams (TCP: messages) dropped unparsed: the sender's receive share was used up
+    shed_from_peers: int = 0  # of those, from known peers (the rest from strangers)
+    peers_refused: int = 0  # new addresses not learned as peers: the table was full of live ones
 
 
 def _frame_length(data: bytes, i: int) -> int | None:
