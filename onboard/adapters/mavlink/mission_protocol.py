@@ -650,10 +650,12 @@ class MissionServer:
         if self._judging is not None:
             return self._busy(sender, mt)
         up = self._upload
-        if up is not None and up.mission_type in types:
-            if up.sender != sender:
+        if up is not None:
+            # one transfer at a time: only the uploader may clear, and only what it uploads (which ends its
+            # upload); any other clear would be judged and end the upload without a word to its owner
+            if up.sender != sender or up.mission_type not in types:
                 return self._busy(sender, mt)
-            self._upload = None  # the uploader itself clears: its upload ends
+            self._upload = None
         if not any(self._plans[t] for t in types):
             self.stats.uploads_accepted += 1
             return [self._ack(sender, mavlink.MAV_MISSION_ACCEPTED, mt)]  # nothing to clear
