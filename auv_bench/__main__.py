@@ -3,7 +3,10 @@
 Sections: can, planner, loop (onboard), simulator (hil_sim, plus the closed-loop lock-step speed over real
 processes, reported under loop), mission_upload (groundstation, against a real vehicle-side process),
 campaign (auv_campaign: missions per minute with one and with all local workers against ``auv-hil scenario``
-over processes, and where the wall time of a lock-step tick goes).
+over processes, and where the wall time of a lock-step tick goes), links (groundstation, over processes: a
+100-goal upload by one and by three concurrent ground stations; a genuine ground station's answers and the
+vehicle's HEARTBEAT rate under a MAVLink flood; control-tick overruns and the actuator watchdog under a CAN
+flood of the bench hub; each against the same without the contention or flood).
 Prints one table per section and writes everything to ``--json PATH``. Figures are measured, never asserted;
 where a figure has a reference measured in the same run, a ratio is given too.
 """
@@ -19,7 +22,7 @@ import time
 from pathlib import Path
 
 PACKAGES = ("onboard.bench", "hil_sim.bench", "groundstation.bench", "auv_campaign.bench")
-SECTIONS = ("can", "simulator", "planner", "loop", "mission_upload", "campaign")
+SECTIONS = ("can", "simulator", "planner", "loop", "mission_upload", "campaign", "links")
 
 
 def _run_package(module: str, quick: bool, only: list[str] | None) -> dict[str, dict]:

@@ -32,10 +32,10 @@ def _paced(seconds: float, rate: float, send_batch: object) -> tuple[int, float]
 
 def flood_can(url: str, seconds: float, rate: float) -> tuple[int, float]:
     import can
-    from can_remote import RemoteBus
 
-    # a sender only: a filter nothing on the bus passes, so the hub queues nothing for it
-    bus = RemoteBus(url, can_filters=[{"can_id": 0, "can_mask": 0x1FFFFFFF, "extended": True}])
+    from onboard.protocol.bus import BusConfig, open_bus
+
+    bus = open_bus(BusConfig(interface="remote", channel=url), timeout_s=15.0, listen_ids=())  # sends only
     frame = can.Message(arbitration_id=0x7F0, data=bytes(8), is_extended_id=False)
 
     def batch() -> None:
@@ -49,19 +49,9 @@ def flood_can(url: str, seconds: float, rate: float) -> tuple[int, float]:
 
 
 def flood_mavlink(host: str, port: int, seconds: float, rate: float) -> tuple[int, float]:
-    from pymavlink.dialects.v20 import common as mavlink
+    from groundstation.bench_links import garbage_datagrams
 
-    rng = random.Random(7)
-    mav = mavlink.MAVLink(None, 66, 1)
-    good = bytearray(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(mav))
-    payloads = []
-    for k in range(64):
-        if k % 2:
-            payloads.append(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 280))))
-        else:
-            bad = bytearray(good)
-            bad[rng.randrange(len(bad))] ^= 1 << rng.randrange(8)
-            payloads.append(bytes(bad))
+    payloads = garbage_datagrams(random.Random(7), 64)
     socks = []
     for _ in range(64):
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
