@@ -71,6 +71,9 @@ class MavlinkConfig:
     command_timeout_s: float = 1.0  # a command the loop has not taken by then: TEMPORARILY_REJECTED
     state_dir: str = ""  # empty = default_state_dir()
     signing_key_file: str = ""  # empty = signing off; 32 raw bytes or 64 hex characters
+    #: endpoints (of ``endpoints``) over which SETUP_SIGNING is taken without a signature (a secure link:
+    #: a USB serial, a loopback only the vehicle's computer reaches); elsewhere it must be signed
+    secure_endpoints: tuple[str, ...] = ()
     signing_link_id: int = 0
     rx_peer_per_s: int = 500  # datagrams (TCP: messages) parsed per second per known peer; the rest shed
     rx_strangers_per_s: int = 200  # the same, shared by every address not (yet) a known peer
@@ -79,6 +82,8 @@ class MavlinkConfig:
         require(len(self.endpoints) >= 1 or not self.enabled, "endpoints: at least one when enabled")
         for spec in self.endpoints:
             parse_endpoint(spec)
+        for spec in self.secure_endpoints:
+            require(spec in self.endpoints, f"secure_endpoints: {spec!r} is not one of endpoints")
         require(1 <= self.system_id <= 255, f"system_id must be 1..255, got {self.system_id}")
         require(1 <= self.component_id <= 255, f"component_id must be 1..255, got {self.component_id}")
         for name in (

@@ -36,13 +36,13 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from onboard.adapters.mavlink.api import Request, VehicleSnapshot
 from onboard.adapters.mavlink.commands import CommandService, RequestQueue
-from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
 from onboard.adapters.mavlink.mission_service import MissionService, Validator
 from onboard.adapters.mavlink.params import ParamService, SpecLike
 from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.persistence import StateStore
 from onboard.adapters.mavlink.telemetry import CAPABILITIES, Telemetry
-from onboard.adapters.mavlink.transport import Transport
+from onboard.adapters.mavlink.transport import Transport, addressed_to
 from onboard.core import commands as core
 from onboard.core.commands import Note, Severity, Verdict
 from onboard.core.mission.model import Mission
@@ -83,14 +83,14 @@ class VehicleLink:
         self.config = config
         self._clock = clock
         self.store = store if store is not None else StateStore(config.resolved_state_dir())
-        signed = bool(config.signing_key_file)
         self._signing_save_failed = False
         self.transport = Transport(
             config,
             clock,
             self.dispatch,
-            signing_floor=self.store.load_signing_timestamp() if signed else 0,
-            on_signing_advance=self._save_signing_timestamp if signed else None,
+            signing_key=self._boot_signing_key(),
+            signing_floor=self.store.load_signing_timestamp(),
+            on_signing_advance=self._save_signing_timestamp,
         )
         self.requests = RequestQueue(clock, config.command_timeout_s, self.transport.wake)
         self.missions = MissionService(
@@ -114,6 +114,13 @@ class VehicleLink:
         self._gcs_lost = False
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+
+    def _boot_signing_key(self) -> bytes | None:
+        """The key a SETUP_SIGNING set (persisted; it may have turned signing off), else the configured."""
+        set_by_setup, key = self.store.load_signing_key()
+        if set_by_setup:
+            return key
+        return load_signing_key(self.config.signing_key_file) if self.config.signing_key_file else None
 
     def _save_signing_timestamp(self, timestamp: int) -> None:
         """Persist a newer signing timestamp; a failure is logged (once) and the packet still used: a
@@ -236,8 +243,12 @@ class VehicleLink:
         """One received message (I/O thread; tests call it directly)."""
         kind = msg.get_type()
         if kind == "HEARTBEAT":
-            if msg.type == mavlink.MAV_TYPE_GCS:
+            # with signing on, only a signed heartbeat is the operator's (an unsigned one makes a listener)
+            if msg.type == mavlink.MAV_TYPE_GCS and (msg.get_signed() or not self.transport.signing):
                 self._gcs_heard(now)
+            return
+        if kind == "SETUP_SIGNING":
+            self._setup_signing(msg, sender)
             return
         if kind == "MISSION_SET_CURRENT" or kind.startswith("COMMAND_"):
             self.commands.handle(msg, sender, now)
@@ -245,6 +256,44 @@ class VehicleLink:
             self.missions.handle(msg, sender, now)
         elif kind.startswith("PARAM_"):
             self.params.handle(msg, sender, now)
+
+    # ---- SETUP_SIGNING ---------------------------------------------------------------------------
+    def _setup_signing(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:
+        """Set (or, all-zero key and timestamp, clear) the signing key, as the MAVLink signing guide says:
+        taken only signed with the current key or over a secure endpoint (``[mavlink] secure_endpoints``),
+        persisted (it wins over the key file at the next boot), then used for everything that follows."""
+        if not addressed_to(msg, self.config.system_id, self.config.component_id):
+            return
+        who = f"{sender.system_id}/{sender.component_id}"
+        if not (msg.get_signed() or self.transport.is_secure(sender.link)):
+            reason = (
+                f"SETUP_SIGNING from {who} refused: not signed with the current key and not over a secure "
+                "endpoint ([mavlink] secure_endpoints)"
+            )
+            log.warning("%s", reason)
+            self.transport.statustext(Severity.WARNING, reason, to=sender)
+            return
+        key = bytes(msg.secret_key)
+        timestamp = int(msg.initial_timestamp)
+        off = not any(key) and timestamp == 0
+        try:
+            self.store.save_signing_key(None if off else key)
+        except OSError as exc:
+            reason = f"SETUP_SIGNING from {who} refused: the key could not be saved ({exc})"
+            log.error("%s", reason)
+            self.transport.statustext(Severity.ERROR, reason, to=sender)
+            return
+        self.transport.set_signing(None if off else key, timestamp)
+        text = (
+            f"signing off (SETUP_SIGNING from {who})"
+            if off
+            else (
+                f"signing key set by {who}: from now on only signed messages are taken "
+                "(HEARTBEAT and RADIO_STATUS also unsigned)"
+            )
+        )
+        log.warning("%s", text)
+        self.transport.statustext(Severity.NOTICE, text, to=sender)
 
     # ---- GCS heartbeat watch -------------------------------------------------------------------
     def _gcs_heard(self, now: float) -> None:

@@ -55,6 +55,7 @@ FILE_NAMES = {TYPE_MISSION: "mission.json", TYPE_FENCE: "fence.json"}
 PARAMS_FILE = "params.json"
 PROGRESS_FILE = "progress.json"
 SIGNING_FILE = "signing.json"
+SIGNING_KEY_FILE = "signing_key.json"
 FORMAT_VERSION = 1
 #: MAVLink PARAM_* ids are at most 16 characters.
 MAX_PARAM_NAME = 16
@@ -352,6 +353,33 @@ class StateStore:
         return index
 
     # ---- signing ---------------------------------------------------------------------------------
+    def save_signing_key(self, key: bytes | None) -> None:
+        """Persist the key a SETUP_SIGNING set (None: signing turned off); it wins over the configured key
+        file at the next boot. Owner-only (0600), atomic and synced."""
+        path = self.dir / SIGNING_KEY_FILE
+        write_json_atomic(path, {"version": FORMAT_VERSION, "key": key.hex() if key is not None else None})
+        os.chmod(path, 0o600)
+
+    def load_signing_key(self) -> tuple[bool, bytes | None]:
+        """(set, key): whether a SETUP_SIGNING set the key, and the key (None: off). An invalid file is set
+        aside (and the configured key applies)."""
+        data = self._load(SIGNING_KEY_FILE)
+        if data is None:
+            return False, None
+        try:
+            text = _shape(data, "key", object)
+            if text is None:
+                return True, None
+            if not isinstance(text, str):
+                raise ValueError("'key' must be 64 hex characters or null")
+            key = bytes.fromhex(text)
+            if len(key) != 32:
+                raise ValueError(f"a signing key has 32 bytes, got {len(key)}")
+            return True, key
+        except Exception as exc:  # anything in untrusted content means invalid
+            self.quarantine(SIGNING_KEY_FILE, _why(exc))
+            return False, None
+
     def save_signing_timestamp(self, timestamp: int) -> None:
         """Persist the newest signing timestamp accepted (10 us units since 2015): after a restart no packet
         at or below it is accepted (a replay). Written at every advance, atomically, not synced."""

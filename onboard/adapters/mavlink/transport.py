@@ -35,9 +35,15 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common.token_bucket import TokenBucket
-from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key, parse_endpoint
+from onboard.adapters.mavlink.config import MavlinkConfig, parse_endpoint
 from onboard.adapters.mavlink.peers import Addr, Link, Sender
-from onboard.adapters.mavlink.wire import RxStats, SigningVerifier, decode_datagram, signing_timestamp_now
+from onboard.adapters.mavlink.wire import (
+    RxStats,
+    SigningVerifier,
+    accept_frame,
+    decode_datagram,
+    signing_timestamp_now,
+)
 from onboard.core.commands import Severity
 
 log = logging.getLogger(__name__)
@@ -91,6 +97,7 @@ class _Socket:
     share: TokenBucket | None = None  # the share of the fixed address (udpout) or of the TCP connection
     stream_parser: Any = None  # for TCP connections
     server: bool = False
+    secure: bool = False  # one of [mavlink] secure_endpoints (a TCP connection: its server's)
     serial: int = field(default_factory=lambda: next(_serials))
 
 
@@ -112,12 +119,14 @@ class Transport:
         config: MavlinkConfig,
         clock: Callable[[], float],
         on_message: OnMessage,
+        signing_key: bytes | None = None,
         signing_floor: int = 0,
         on_signing_advance: Callable[[int], None] | None = None,
     ) -> None:
-        """``signing_floor`` / ``on_signing_advance``: the persisted newest signing timestamp accepted, and
-        where a newer one goes (:class:`~auv_common.mavlink_signing.SigningVerifier`); the vehicle's own
-        outgoing timestamps start above the floor too."""
+        """``signing_key``: the MAVLink 2 signing key (None: signing off); ``signing_floor`` /
+        ``on_signing_advance``: the persisted newest signing timestamp accepted, and where a newer one goes
+        (:class:`~auv_common.mavlink_signing.SigningVerifier`); the vehicle's own outgoing timestamps start
+        above the floor too."""
         self.config = config
         self._clock = clock
         self.on_message = on_message
@@ -126,13 +135,8 @@ class Transport:
         self.tx_errors = 0
         self._mav = mavlink.MAVLink(_Fanout(self), config.system_id, config.component_id)
         self._verifier: SigningVerifier | None = None
-        if config.signing_key_file:
-            key = load_signing_key(config.signing_key_file)
-            self._verifier = SigningVerifier(key, signing_floor, on_signing_advance)
-            self._mav.signing.secret_key = key
-            self._mav.signing.link_id = config.signing_link_id
-            self._mav.signing.sign_outgoing = True
-            self._mav.signing.timestamp = max(signing_timestamp_now(), signing_floor + 1)
+        self._on_signing_advance = on_signing_advance
+        self.set_signing(signing_key, signing_floor)
         self._sockets: list[_Socket] = []
         self._selector: selectors.BaseSelector | None = None
         self._wake_r: socket.socket | None = None
@@ -164,6 +168,7 @@ class Transport:
                     sock.bind(("0.0.0.0", 0))
                     s = _Socket(kind, sock, fixed=(host, port), share=self._peer_share())
                 sock.setblocking(False)
+            s.secure = spec in self.config.secure_endpoints
             self._sockets.append(s)
             sel.register(s.sock, selectors.EVENT_READ, s)
         self._wake_r, self._wake_w = socket.socketpair()
@@ -188,6 +193,34 @@ class Transport:
     def ports(self) -> list[int]:
         """Local ports of the endpoint's sockets (after :meth:`open`), in config order."""
         return [s.sock.getsockname()[1] for s in self._sockets if s.kind != "tcpconn"]
+
+    @property
+    def signing(self) -> bool:
+        """Whether signing is on (every message but :data:`~onboard.adapters.mavlink.wire.UNSIGNED_ALLOWED`
+        must then be signed with the key)."""
+        return self._verifier is not None
+
+    def set_signing(self, key: bytes | None, floor: int = 0) -> None:
+        """Sign and verify with ``key`` from now on (None: signing off). No timestamp at or below ``floor``
+        or below any accepted before is accepted; the vehicle's own timestamps go on increasing."""
+        if key is None:
+            self._verifier = None
+            self._mav.signing.sign_outgoing = False
+            self._mav.signing.secret_key = None
+            return
+        if self._verifier is not None:
+            floor = max(floor, self._verifier.accepted)
+        self._verifier = SigningVerifier(key, floor, self._on_signing_advance)
+        self._mav.signing.secret_key = key
+        self._mav.signing.link_id = self.config.signing_link_id
+        self._mav.signing.sign_outgoing = True
+        self._mav.signing.timestamp = max(self._mav.signing.timestamp, signing_timestamp_now(), floor + 1)
+
+    def is_secure(self, link: Link | None) -> bool:
+        """Whether ``link`` came over one of ``[mavlink] secure_endpoints``."""
+        if link is None:
+            return False
+        return any(s.serial == link[0] and s.secure for s in self._sockets)
 
     def wake(self) -> None:
         """Interrupt :meth:`wait` (thread-safe; a no-op before :meth:`open`)."""
@@ -257,7 +290,7 @@ class Transport:
             conn.setblocking(False)
             parser = mavlink.MAVLink(None)
             parser.robust_parsing = True
-            c = _Socket("tcpconn", conn, stream_parser=parser, share=self._peer_share())
+            c = _Socket("tcpconn", conn, stream_parser=parser, share=self._peer_share(), secure=s.secure)
             self._sockets.append(c)
             assert self._selector is not None
             self._selector.register(conn, selectors.EVENT_READ, c)
@@ -306,7 +339,7 @@ class Transport:
                 self.rx.malformed += 1
                 continue
             frame = bytes(msg.get_msgbuf())
-            if self._verifier is not None and not self._verifier.verify(frame, self.rx):
+            if not accept_frame(frame, msg, self.rx, self._verifier):
                 continue
             self.rx.packets += 1
             self._dispatch(msg, now, (s.serial, None))

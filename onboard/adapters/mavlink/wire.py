@@ -23,9 +23,40 @@ from auv_common.mavlink_signing import (
     signing_timestamp_now,
 )
 
-__all__ = ["MAGIC_V1", "MAGIC_V2", "RxStats", "SigningVerifier", "decode_datagram", "signing_timestamp_now"]
+__all__ = [
+    "MAGIC_V1",
+    "MAGIC_V2",
+    "UNSIGNED_ALLOWED",
+    "RxStats",
+    "SigningVerifier",
+    "accept_frame",
+    "decode_datagram",
+    "signing_timestamp_now",
+]
 
 MAGIC_V1 = 0xFE
+
+#: The messages taken unsigned while signing is on, as the spec allows: a radio cannot sign its RADIO_STATUS,
+#: and a HEARTBEAT only makes its sender a peer that hears the telemetry (it keeps no GCS link alive: an
+#: unsigned heartbeat is no sign of the operator). Nothing unsigned can command, upload or set.
+UNSIGNED_ALLOWED = frozenset({mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS})
+
+
+def accept_frame(
+    frame: bytes, msg: mavlink.MAVLink_message, stats: RxStats, verifier: SigningVerifier | None
+) -> bool:
+    """Whether a decoded frame is used: always without signing; with it, when signed with our key and fresh
+    (``msg.get_signed()`` then True), or unsigned and in :data:`UNSIGNED_ALLOWED` (counted)."""
+    if verifier is None:
+        return True
+    if frame[0] != MAGIC_V2 or not frame[2] & IFLAG_SIGNED:
+        if msg.get_msgId() in UNSIGNED_ALLOWED:
+            stats.unsigned_accepted += 1
+            return True
+    if not verifier.verify(frame, stats):
+        return False
+    msg._signed = True  # checked by us (pymavlink's own flag stays False without its key)
+    return True
 
 
 @dataclass
@@ -37,6 +68,7 @@ class RxStats:
     malformed: int = 0  # bad CRC, bad length, truncated, garbage bytes before a marker
     unknown: int = 0  # well-formed but not in the common dialect
     unsigned_rejected: int = 0
+    unsigned_accepted: int = 0  # HEARTBEAT / RADIO_STATUS taken unsigned while signing is on
     bad_signature: int = 0
     old_timestamp: int = 0
     shed: int = 0  # datagrams (TCP: messages) dropped unparsed: the sender's receive share was used up
@@ -94,7 +126,7 @@ def decode_datagram(
             i += 1
             continue
         i += length
-        if verifier is not None and not verifier.verify(frame, stats):
+        if not accept_frame(frame, msg, stats, verifier):
             continue
         stats.packets += 1
         out.append((msg, frame))
