@@ -5,9 +5,11 @@ second uploader meanwhile is refused (MAV_MISSION_DENIED with a STATUSTEXT), nev
 from __future__ import annotations
 
 import threading
+import time
 from pathlib import Path
 
 import pytest
+from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.mavclient import Item, MavClient
 from groundstation.mission_files import goal_item
@@ -71,5 +73,31 @@ def test_two_ground_stations_with_the_same_ids_never_mix_their_missions(
             finally:
                 for c in clients:
                     c.close()
+    finally:
+        vehicle.stop()
+
+
+def test_a_command_ack_goes_to_the_station_that_sent_the_command(tmp_path: Path) -> None:
+    # GIVEN two ground stations with the same ids (255/190) on their own sockets
+    vehicle = Vehicle(tmp_path / "state").start()
+    try:
+        a, b = (MavClient(f"udpout:127.0.0.1:{vehicle.port}") for _ in range(2))
+        try:
+            for c in (a, b):
+                c.heartbeat()
+                c.wait_heartbeat(3.0)
+            acks_b: list[object] = []
+            b.on_message = lambda m: acks_b.append(m) if m.get_type() == "COMMAND_ACK" else None
+            # WHEN A sends a command (a request for the vehicle's HOME_POSITION)
+            ack = a.command_ack(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_HOME_POSITION)
+            deadline = time.monotonic() + 1.0
+            while time.monotonic() < deadline:
+                b.recv(0.1)
+            # THEN A is answered and B, whose ids are the same, hears no ACK it could take for its own
+            assert ack.result == mavlink.MAV_RESULT_ACCEPTED, ack
+            assert acks_b == []
+        finally:
+            a.close()
+            b.close()
     finally:
         vehicle.stop()
