@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 _NEGATIVE = re.compile(r"^-[0-9.]")
 
@@ -56,6 +56,27 @@ def run_bench_sections(prog: str, sections: dict[str, str], argv: list[str] | No
             result[name] = {"error": repr(exc)}
     with open(args.json, "w") as f:
         json.dump(result, f, indent=2)
+    return 0
+
+
+def run_one_section(prog: str, run: Callable[[bool], dict[str, float]], argv: list[str] | None) -> int:
+    """The command line of one section module run by hand (``python -m MODULE [--quick] [--json]``):
+    its figures as a table, or one JSON line."""
+    import argparse
+    import json
+    import sys
+
+    ap = argparse.ArgumentParser(prog=prog)
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--json", action="store_true", help="one JSON line instead of the table")
+    args = ap.parse_args(argv)
+    res = run(args.quick)
+    if args.json:
+        sys.stdout.write(json.dumps(res) + "\n")
+    else:
+        width = max((len(k) for k in res), default=0) + 2
+        for k, v in res.items():
+            sys.stdout.write(f"{k:{width}s} {v:.4f}\n")
     return 0
 
 

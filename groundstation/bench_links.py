@@ -50,7 +50,6 @@ Sizes (full / ``--quick``): 7 / 3 one-GCS uploads and 5 / 2 three-GCS rounds; N 
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import csv
 import datetime
@@ -73,6 +72,7 @@ from typing import IO, Any
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common.cli import run_one_section
 from auv_common.process import stop_process
 from groundstation.bench_upload import start_vehicle, stop_vehicle
 from groundstation.mavclient import Item, MavClient, state_from_heartbeat
@@ -623,17 +623,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["worker"]:
         return _worker(argv[1:])
-    ap = argparse.ArgumentParser(prog="python -m groundstation.bench_links")
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    res = run(args.quick)
-    if args.json:
-        sys.stdout.write(json.dumps(res) + "\n")
-    else:
-        for k, v in res.items():
-            sys.stdout.write(f"{k:44s} {v:.4f}\n")
-    return 0
+    return run_one_section("python -m groundstation.bench_links", run, argv)
 
 
 if __name__ == "__main__":

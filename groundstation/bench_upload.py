@@ -8,7 +8,6 @@ it measures and prints, it asserts nothing. ``python -m groundstation.bench_uplo
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -18,6 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from auv_common.cli import run_one_section
 from auv_common.process import stop_process
 from groundstation.mavclient import MavClient
 from groundstation.mission_files import goal_item
@@ -109,17 +109,7 @@ def run(quick: bool = False) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m groundstation.bench_upload")
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    res = run(args.quick)
-    if args.json:
-        sys.stdout.write(json.dumps(res) + "\n")
-    else:
-        for k, v in res.items():
-            sys.stdout.write(f"{k:36s} {v:.4f}\n")
-    return 0
+    return run_one_section("python -m groundstation.bench_upload", run, argv)
 
 
 if __name__ == "__main__":

@@ -255,10 +255,28 @@ PEERS = st.sampled_from(["A", "B"])
 THEN = st.sampled_from(["", "accept", "accept", "refuse"])  # after a transfer: the judgement at once?
 
 
-class MissionMachine(RuleBasedStateMachine):
-    def __init__(self) -> None:
+class _VehicleMachine(RuleBasedStateMachine):
+    """What both machines share: a state directory of their own and the vehicle under test."""
+
+    def __init__(self, prefix: str) -> None:
         super().__init__()
-        self.dir = Path(tempfile.mkdtemp(prefix="stateful-mission-"))
+        self.dir = Path(tempfile.mkdtemp(prefix=prefix))
+        self.v: Vehicle | None = None
+
+    def teardown(self) -> None:
+        if self.v is not None:
+            self.v.close()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    @property
+    def vehicle(self) -> Vehicle:
+        assert self.v is not None
+        return self.v
+
+
+class MissionMachine(_VehicleMachine):
+    def __init__(self) -> None:
+        super().__init__("stateful-mission-")
         self.gate = threading.Semaphore(0)
         self.booting = False
         self.slow_future: concurrent.futures.Future[Any] | None = None
@@ -268,7 +286,6 @@ class MissionMachine(RuleBasedStateMachine):
         self.last_done: tuple[str, int, int, tuple[str, ...]] | None = None
         self.plan: dict[str, tuple[int, tuple[MissionItem, ...]]] = {}
         self.peers: dict[str, Sender] = {"A": A}
-        self.v: Vehicle | None = None
         self.requests: list[int] = []  # ids the loop took and did not answer yet
 
     # ---- the harness -------------------------------------------------------------------------------
@@ -290,14 +307,7 @@ class MissionMachine(RuleBasedStateMachine):
 
     def teardown(self) -> None:
         self.release_slow()
-        if self.v is not None:
-            self.v.close()
-        shutil.rmtree(self.dir, ignore_errors=True)
-
-    @property
-    def vehicle(self) -> Vehicle:
-        assert self.v is not None
-        return self.v
+        super().teardown()
 
     def release_slow(self) -> None:
         if self.slow_future is not None:
@@ -738,15 +748,13 @@ def param_msg(m: mavlink.MAVLink_message) -> tuple[str, float, int, int, int]:
     return (m.param_id, m.param_value, m.param_type, m.param_count, m.param_index)
 
 
-class ParamMachine(RuleBasedStateMachine):
+class ParamMachine(_VehicleMachine):
     def __init__(self) -> None:
-        super().__init__()
-        self.dir = Path(tempfile.mkdtemp(prefix="stateful-param-"))
+        super().__init__("stateful-param-")
         self.values = {s.name: float(s.default) for s in SPECS}
         self.pending: list[tuple[str, float, float]] = []  # (name, value as received, deadline), in order
         self.gcs = Sender(255, 190, (1, ("10.0.0.1", 14550)))
         self.ap: Autopilot | None = None
-        self.v: Vehicle | None = None
 
     def boot(self) -> None:
         t = self.v.t if self.v is not None else T0
@@ -755,16 +763,6 @@ class ParamMachine(RuleBasedStateMachine):
         self.ap = Autopilot(CoreConfig(), bus_limits=BUS)
         self.v = Vehicle(self.dir, t, validator=lambda _m: MissionCheck(), params=SPECS)
         self.pending = []
-
-    def teardown(self) -> None:
-        if self.v is not None:
-            self.v.close()
-        shutil.rmtree(self.dir, ignore_errors=True)
-
-    @property
-    def vehicle(self) -> Vehicle:
-        assert self.v is not None
-        return self.v
 
     def pv(self, name: str) -> tuple[str, float, int, int, int]:
         return (name, f32(self.values[name]), C.MAV_PARAM_TYPE_REAL32, len(SPECS), INDEX[name])
