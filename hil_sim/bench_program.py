@@ -427,8 +427,8 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
     if bus_override is not None:
         bus = bus_override
     elif cfg.bus.interface == "remote" and cfg.bench.host_hub:
-        hub = BenchHub(cfg.bus.channel, cfg.bus.hub_channel)
-        bus = hub.client(filters)
+        hub = BenchHub(cfg.bus.channel, cfg.bus.hub_channel, filters)
+        bus = hub.bus
     else:
         bus = open_bus(cfg.bus, stop=stop, listen_ids=filters)
     port = BusPort(bus, time.monotonic, listen, codec, record=cfg.bus.record or None)

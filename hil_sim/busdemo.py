@@ -38,11 +38,11 @@ class BusDemoResult:
 
 def run_bus_demo(count: int = 200, rate_hz: float = 100.0, timeout_s: float = 30.0) -> BusDemoResult:
     """Run the two-process exchange; returns what the bench saw. Uses a free port and its own hub channel."""
-    hub = BenchHub("ws://127.0.0.1:0/", f"busdemo-{time.monotonic_ns()}")
-    url = f"ws://127.0.0.1:{hub.port}/"
     codec = Codec()
     listen = [codec.frame_id(m) for m in (FinCmd, PropCmd, SyncAck)]
-    port = BusPort(hub.client(listen), time.monotonic, listen, codec)
+    hub = BenchHub("ws://127.0.0.1:0/", f"busdemo-{time.monotonic_ns()}", listen)
+    url = f"ws://127.0.0.1:{hub.port}/"
+    port = BusPort(hub.bus, time.monotonic, listen, codec)
     peer = subprocess.Popen(
         [sys.executable, "-m", "onboard.bench.busdemo", "echo", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,

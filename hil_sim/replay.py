@@ -55,11 +55,11 @@ def main(argv: list[str]) -> int:
         if args.speed <= 0:
             raise ConfigError("--speed must be > 0")
         ids = frozenset(int(v, 0) for v in args.ids.split(",")) if args.ids else None
-        hub = BenchHub(args.channel, DEFAULT_HUB_CHANNEL)
+        hub = BenchHub(args.channel, DEFAULT_HUB_CHANNEL, listen_ids=())  # it only sends
     except (ConfigError, ValueError, OSError) as exc:
         print(f"auv-hil replay: {exc}", file=sys.stderr)
         return 2
-    bus = hub.client(listen_ids=())  # sends only
+    bus = hub.bus
     try:
         sent = replay(args.file, bus, args.speed, ids, threading.Event())
     finally:

@@ -42,9 +42,9 @@ def _codec_cost_us(n: int) -> dict[str, float]:
 
 def _latency(rate_hz: float, count: int) -> dict[str, float]:
     """One-way latency through the hub (its own process): this process (a client) -> a peer process."""
-    hub = BenchHub("ws://127.0.0.1:0/", f"canbench-{time.monotonic_ns()}")
+    hub = BenchHub("ws://127.0.0.1:0/", f"canbench-{time.monotonic_ns()}", listen_ids=())  # sends only
     url = f"ws://127.0.0.1:{hub.port}/"
-    port = BusPort(hub.client(listen_ids=()), time.monotonic)  # sends only
+    port = BusPort(hub.bus, time.monotonic)
     peer = subprocess.Popen(
         [sys.executable, "-m", "onboard.bench.busdemo", "record", "--channel", url, "--count", str(count)],
         stdout=subprocess.PIPE,

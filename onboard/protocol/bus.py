@@ -211,11 +211,19 @@ def open_bus(
 class BenchHub:
     """The bench's python-can-remote hub, run as a process of its own (:mod:`onboard.protocol.hub`).
 
-    A websocket server on loopback whose clients all hear each other; the hosting program joins it like any
-    other node, through :meth:`client`. Apart from the simulation, a flood keeps the hub busy, not the bench.
+    A websocket server on loopback whose clients all hear each other. The hosting program's own bus,
+    :attr:`bus` (acceptance filters ``listen_ids``, None: every frame; ``()``: it only sends), joins before
+    the public port opens, so it hears every frame of the run. Apart from the simulation, a flood keeps the
+    hub busy, not the bench.
     """
 
-    def __init__(self, channel_url: str, hub_channel: str, start_timeout_s: float = 20.0) -> None:
+    def __init__(
+        self,
+        channel_url: str,
+        hub_channel: str,
+        listen_ids: Iterable[int] | None = None,
+        start_timeout_s: float = 20.0,
+    ) -> None:
         host, port = remote_endpoint(channel_url)
         self.host = host
         self.hub_channel = hub_channel
@@ -226,25 +234,33 @@ class BenchHub:
             stdout=subprocess.PIPE,
             text=True,
         )
-        line = _read_line(self._proc, start_timeout_s)
+        try:
+            private = self._answer("host_port", start_timeout_s, f"{host}:{port}")
+            cfg = BusConfig(interface="remote", channel=f"ws://{host}:{private}/")
+            self.bus: can.BusABC = open_bus(cfg, timeout_s=start_timeout_s, listen_ids=listen_ids)
+            assert self._proc.stdin is not None
+            self._proc.stdin.write("open\n")
+            self._proc.stdin.flush()
+            self.port: int = self._answer("port", start_timeout_s, f"{host}:{port}")
+        except BaseException:
+            self.close()
+            raise
+        self.url = f"ws://{host}:{self.port}/"
+        log.info("bench CAN hub listening on %s (channel %s, pid %d)", self.url, hub_channel, self._proc.pid)
+
+    def _answer(self, key: str, timeout_s: float, where: str) -> int:
+        line = _read_line(self._proc, timeout_s)
         try:
             answer = json.loads(line) if line else {}
         except json.JSONDecodeError:
             answer = {}
-        if "port" not in answer:
-            self.close()
-            reason = answer.get("error") or f"no answer within {start_timeout_s:.0f} s ({line!r})"
-            raise OSError(f"CAN hub on {host}:{port} did not start: {reason}")
-        self.port: int = int(answer["port"])
-        self.url = f"ws://{host}:{self.port}/"
-        log.info("bench CAN hub listening on %s (channel %s, pid %d)", self.url, hub_channel, self._proc.pid)
-
-    def client(self, listen_ids: Iterable[int] | None = None, timeout_s: float = 10.0) -> can.BusABC:
-        """A bus joined to the hub (acceptance filters ``listen_ids``, None: every frame)."""
-        cfg = BusConfig(interface="remote", channel=self.url)
-        return open_bus(cfg, timeout_s=timeout_s, listen_ids=listen_ids)
+        if key not in answer:
+            reason = answer.get("error") or f"no answer within {timeout_s:.0f} s ({line!r})"
+            raise OSError(f"CAN hub on {where} did not start: {reason}")
+        return int(answer[key])
 
     def close(self) -> None:
+        """Stop the hub (the host's :attr:`bus` is its user's to shut down, e.g. by its port)."""
         proc = self._proc
         if proc.poll() is None:
             if proc.stdin is not None:

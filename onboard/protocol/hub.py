@@ -6,9 +6,11 @@ the hub busy takes a core of its own, not the bench's GIL. Each client's accepta
 (``can_filters`` in its bus request, :func:`onboard.protocol.bus.open_bus`) are applied inside the hub, so
 frames a node does not listen to never reach its process (what a CAN controller's acceptance filter does).
 
-Protocol with the parent: one line ``{"port": P}`` on stdout once listening; the hub stops when its stdin
-closes (the parent ended, however it ended) or on SIGTERM. SIGINT is ignored: Ctrl-C in a terminal reaches
-the whole process group and the parent decides.
+Protocol with the parent: ``{"host_port": P0}`` on stdout, a private port the parent joins first (so it
+hears every frame any other node sends, also one sent by a node that started first); ``open`` on stdin
+once joined; then ``{"port": P}`` once the public port listens (or ``{"error": ...}``). The hub stops when
+its stdin closes (the parent ended, however it ended) or on SIGTERM. SIGINT is ignored: Ctrl-C in a
+terminal reaches the whole process group and the parent decides.
 """
 
 from __future__ import annotations
@@ -79,6 +81,10 @@ def _tell_parent(answer: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
+def _serve(server: Any) -> None:
+    threading.Thread(target=server.serve_forever, name="can-hub", daemon=True).start()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m onboard.protocol.hub", description=__doc__)
     parser.add_argument("--host", default="127.0.0.1", choices=LOOPBACK_HOSTS)
@@ -88,23 +94,30 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     from can_remote import RemoteServer
 
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda _s, _f: done.set())
+    # The parent joins first, through a port of its own, so it hears every frame any other node sends (a
+    # node that starts first and sends at once must not talk to nobody); then the public port opens.
+    private = RemoteServer(host=args.host, port=0, interface=INTERFACE, channel=args.channel)
+    _serve(private)
+    _tell_parent({"host_port": private.server_port})
+    if sys.stdin.readline().strip() != "open":  # the parent ended (EOF) or gave up
+        return 0
+    private.shutdown()  # its one connection stays; nobody else comes in that way
+    private.server_close()
     try:
         server = RemoteServer(host=args.host, port=args.port, interface=INTERFACE, channel=args.channel)
     except OSError as exc:
         _tell_parent({"error": f"cannot listen on {args.host}:{args.port}: {exc.strerror or exc}"})
         return 3
-    done = threading.Event()
-    signal.signal(signal.SIGTERM, lambda _s, _f: done.set())
-    serving = threading.Thread(target=server.serve_forever, name="can-hub", daemon=True)
-    serving.start()
+    _serve(server)
     _tell_parent({"port": server.server_port})
 
     def parent_watch() -> None:
         sys.stdin.read()  # returns at EOF: the parent closed the pipe or ended
         done.set()
 
-    watch = threading.Thread(target=parent_watch, name="parent-watch", daemon=True)
-    watch.start()
+    threading.Thread(target=parent_watch, name="parent-watch", daemon=True).start()
     done.wait()
     server.shutdown()
     server.server_close()

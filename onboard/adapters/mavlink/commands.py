@@ -327,7 +327,7 @@ class CommandService:
 
     def _ack(self, cmd: int, sender: Sender, verdict: Verdict) -> None:
         result = MAV_RESULT.get(verdict.outcome, mavlink.MAV_RESULT_FAILED)
-        # to the link the command came over only: another station with the same ids must not take it as its own
+        # to the command's link only: another station with the same ids must not take it as its own
         ack = mavlink.MAVLink_command_ack_message(cmd, result, 0, 0, sender[0], sender[1])
         self.transport.reply(ack, sender)
         self.acks += 1
