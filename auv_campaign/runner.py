@@ -320,13 +320,22 @@ def _drive(
     codec = _codec()
     bench_listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
     bench_port = BusPort(VirtualBus(channel=channel), lambda: bench.state.t_s, bench_listen, codec)
+    steps = LockstepBench(bench, bench_port, hil, truth, result)
+    # The onboard checks rates as on a vehicle, on the lock-step clock: tick x control period (it runs before
+    # the start too, while the simulated time stands still; a period's frames share its tick); not with a loop
+    # faster than the bus contract's (SYNC and status follow the loop). The bench's port does not: before the
+    # start the onboard sends its heartbeat every tick, 20x its cycle.
     onboard_port = BusPort(
-        VirtualBus(channel=channel), lambda: bench.state.t_s, [codec.frame_id(c) for c in LISTEN], codec
+        VirtualBus(channel=channel),
+        lambda: steps.tick * steps.period_s,
+        [codec.frame_id(c) for c in LISTEN],
+        codec,
     )
+    if steps.period_s >= (codec.cycle_time_s(codec.frame_id(m.Sync)) or 0.0) - 1e-9:
+        onboard_port.receiver.check_rates(receive_period_s=steps.period_s)
     loop = ControlLoop(onboard_port, autopilot, cfg.loop)
     if loop.plans is not None:
         loop.plans.lockstep = True
-    steps = LockstepBench(bench, bench_port, hil, truth, result)
     max_idle_ticks = round(START_ALLOWANCE_S * cfg.loop.rate_hz)
     # A backstop only (the bench stops at the time limit): no run can keep its worker for ever.
     max_ticks = max_idle_ticks + round((hil.bench.duration_s + STOP_DELAY_S + 1.0) * cfg.loop.rate_hz)

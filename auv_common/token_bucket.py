@@ -1,7 +1,8 @@
 """A token bucket: at most ``rate_per_s`` events a second on average, ``burst`` at once.
 
 The one rate limiter of the stack: the vehicle's MAVLink receive shares (one per known peer, one for all
-strangers) use it. Pure: the caller passes the time (monotonic or simulated seconds).
+strangers) and the CAN receivers' rate check per id (``onboard.protocol.codec.FrameReceiver.check_rates``)
+use it. Pure: the caller passes the time (monotonic or simulated seconds).
 """
 
 from __future__ import annotations

@@ -335,6 +335,19 @@ def run(
     lockstep = cfg.loop.time_source == "lockstep"
     clock = time.monotonic
     port = BusPort(bus, clock, listen, codec, record=cfg.bus.record or None)
+    # Frames far above an id's DBC rate are dropped undecoded and the id distrusted (its frames drained once
+    # per tick). Not in lock-step on this wall clock (the simulation runs faster than it), nor with a loop
+    # faster than the bus contract's control period (the bench's status frames follow the loop).
+    control_cycle_s = codec.cycle_time_s(codec.frame_id(FinStatus)) or 0.0
+    if not lockstep and cfg.loop.period_s >= control_cycle_s - 1e-9:
+        port.receiver.check_rates(receive_period_s=cfg.loop.period_s)
+        port.rates_on_bus_time = True  # the frames' own arrival times: a stall of this process bunches none
+    elif not lockstep:
+        log.warning(
+            "frame rate check off: the loop runs at %.0f Hz, faster than the bus contract's %.0f Hz",
+            cfg.loop.rate_hz,
+            1.0 / control_cycle_s,
+        )
     loop = ControlLoop(port, autopilot, cfg.loop)
     if link is not None:
         _bridge(loop, autopilot, link)

@@ -5,7 +5,10 @@ The DBC file ``isimi100.dbc`` beside this module is the single source of truth f
 - :meth:`Codec.encode` raises :class:`EncodeError` for a non-finite or out-of-range value (cantools strict
   mode; saturation is the controller's job, the codec never clamps).
 - :meth:`Codec.decode` raises :class:`FrameError` with a ``reason`` for a frame it cannot accept.
-- :class:`FrameReceiver` adds the stateful checks (alive counter per id) and counts every rejection by reason.
+- :class:`FrameReceiver` adds the stateful checks (alive counter per id; once
+  :meth:`FrameReceiver.check_rates` is called, a rate limit per id from the DBC's nominal cycle times) and
+  counts every rejection by reason.
+- :meth:`Codec.cycle_time_s`: an id's nominal cycle time, the DBC's ``GenMsgCycleTime`` (its one owner).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from typing import Any, Final
 import cantools
 import cantools.database
 
+from auv_common.token_bucket import TokenBucket
 from onboard.protocol.e2e import CRC_BYTE_INDEX, CounterCheck, TxCounters, frame_crc
 from onboard.protocol.messages import ALL_MESSAGE_TYPES, BusMessage
 
@@ -38,7 +42,25 @@ REJECTION_REASONS: Final = (
     "conflicting_sender",
     "non_finite",
     "out_of_range",
+    "over_rate",
 )
+
+#: The rate check (:meth:`FrameReceiver.check_rates`), a token bucket per id: an id may deliver RATE_FACTOR
+#: times the rate of its DBC cycle time, with bursts of RATE_BURST_FRAMES frames on top of what the receiver's
+#: own drain interval P bunches together (burst B + P / T for a cycle T).
+#:
+#: Why it never drops a genuine sender: a sender of period T whose frames reach the receiver late by at most
+#: J (its own jitter, a stall it catches up on by sending its queue, the hub, the receiver's drain interval,
+#: a stall of the receiver's process) delivers at most 1 + (L + J) / T frames in any L seconds of receive
+#: time; the bucket passes B + P / T + L * K / T. With K >= 1 every such sender passes while
+#: J <= (B - 1) T + P: with B = 8, 350 ms late plus the drain interval for the 20 Hz frames, 7 s for the
+#: heartbeats (tests/unit/protocol/test_rate_limit.py: hypothesis over jitter, stalls, losses and drain
+#: intervals). K = 4: the genuine senders reach 2x their cycle's rate at most (lock-step before the start
+#: offers every sensor each control period: the DVL at 20 Hz for its 10 Hz), so a second sender shows once
+#: the id carries 4x its rate. J <= 9 T keeps the conflict check's left-stream window sound
+#: (:data:`onboard.protocol.e2e.LEFT_STREAM_CYCLES`): B - 1 + P / T <= 9, so B = 8 with P up to one cycle.
+RATE_FACTOR: Final = 4.0
+RATE_BURST_FRAMES: Final = 8.0
 
 
 class ProtocolError(Exception):
@@ -76,6 +98,7 @@ class _Spec:
     fields: tuple[str, ...]  # dataclass fields that are DBC signals (no t_sample_s)
     converters: tuple[Any, ...]  # per field: the callable that turns a decoded number into the field type
     ranges: tuple[tuple[float, float], ...]
+    cycle_s: float | None  # the DBC's GenMsgCycleTime in s; None: an event frame (no nominal rate)
 
 
 @dataclass(frozen=True)
@@ -183,6 +206,7 @@ class Codec:
                     )
                     for n in names
                 ),
+                cycle_s=dbc_msg.cycle_time / 1000.0 if dbc_msg.cycle_time else None,
             )
             self._by_cls[cls] = spec
             self._by_id[spec.frame_id] = spec
@@ -195,6 +219,13 @@ class Codec:
     @property
     def frame_ids(self) -> tuple[int, ...]:
         return tuple(sorted(self._by_id))
+
+    def cycle_time_s(self, frame_id: int) -> float | None:
+        """The nominal cycle time of an id (s), the DBC's ``GenMsgCycleTime``: the period its genuine sender
+        keeps (the control period for commands, SYNC and status, the fastest sensor profile's period for
+        the sensors, 1 s for the heartbeats). None for an event frame or an unknown id."""
+        spec = self._by_id.get(frame_id)
+        return spec.cycle_s if spec is not None else None
 
     def encode(self, msg: BusMessage, counter: int) -> tuple[int, bytes]:
         """Encode ``msg`` with alive counter ``counter`` (0..15); returns (arbitration_id, 8 bytes).
@@ -312,10 +343,15 @@ class FrameSender:
 
 @dataclass
 class FrameReceiver:
-    """Stateful receiver: decode, check the alive counter per id, count rejections by reason.
+    """Stateful receiver: (rate check), decode, check the alive counter per id, count rejections by reason.
 
     ``accept_ids`` limits which ids this node listens to (others are ignored, not counted as errors);
     ``max_counter_delta`` is the largest accepted counter step (1: a lost frame costs the next one).
+
+    The rate check is off until :meth:`check_rates`: it needs a receive clock in which the senders keep
+    their nominal rates (the monotonic clock in real time; in lock-step the tick clock, tick x control
+    period, which also runs before the start while the simulated time stands still). A receiver on the wall
+    clock while a lock-step simulation runs faster, or on a constant clock, leaves it off.
     """
 
     codec: Codec
@@ -324,11 +360,57 @@ class FrameReceiver:
     rejected: Counter[str] = field(default_factory=Counter)
     accepted: int = 0
     last_error: str = ""
+    #: 0: no rate check; else the factor K of :meth:`check_rates`
+    rate_factor: float = 0.0
+    rate_burst_frames: float = RATE_BURST_FRAMES
+    receive_period_s: float = 0.0
     _counters: dict[int, CounterCheck] = field(default_factory=dict)
+    _buckets: dict[int, TokenBucket | None] = field(default_factory=dict)
 
-    def receive(self, frame_id: int, data: bytes, t_rx_s: float) -> BusMessage | None:
-        """Return the decoded message, or None if the frame is ignored or rejected (and counted)."""
+    def check_rates(
+        self,
+        receive_period_s: float = 0.0,
+        factor: float = RATE_FACTOR,
+        burst_frames: float = RATE_BURST_FRAMES,
+    ) -> None:
+        """Drop (and count as ``over_rate``) the frames of an id beyond ``factor`` times the rate of its DBC
+        cycle time, with bursts of ``burst_frames`` frames; before decoding, so a flood costs no CRC or
+        decode. ``receive_period_s``: the receiver's drain interval, whose frames arrive at one receive time
+        (the control period for a loop that drains once per tick, and in lock-step). Ids without a cycle
+        time (event frames) are not rate-checked.
+
+        A frame over the rate also puts its id's :class:`CounterCheck` into distrust, as a conflicting
+        sender: a genuine sender stays within the rate, so frames above it mean a second sender (a replay,
+        an impostor) or a babbling node, and neither may be taken for the genuine one.
+        """
+        if factor < 1.0 or burst_frames < 1.0 or receive_period_s < 0.0:
+            raise ValueError(
+                f"rate check: factor {factor} and burst {burst_frames} must be >= 1, "
+                f"receive period {receive_period_s} >= 0"
+            )
+        self.rate_factor, self.rate_burst_frames = factor, burst_frames
+        self.receive_period_s = receive_period_s
+        self._buckets.clear()
+
+    def receive(
+        self, frame_id: int, data: bytes, t_rx_s: float, t_bus_s: float | None = None
+    ) -> BusMessage | None:
+        """Return the decoded message, or None if the frame is ignored or rejected (and counted).
+
+        ``t_bus_s``: the bus's own arrival time of the frame (python-can's timestamp), for the rate check
+        when given: frames keep their spacing however late the receiver reads them (a stall of this process
+        then bunches nothing)."""
         if self.accept_ids is not None and frame_id not in self.accept_ids:
+            return None
+        t_rate_s = t_rx_s if t_bus_s is None else t_bus_s
+        if self.rate_factor and not self._within_rate(frame_id, t_rate_s):
+            # Dropped undecoded: its CRC is unchecked, so its counter is no evidence and does not move the
+            # counter check (a frame that was never verified must not resynchronise the receiver). The drop
+            # itself is the evidence: the id is distrusted as for a conflicting sender, until one stream
+            # alone has come in step and QUIET_S passed without a conflict or an over-rate frame.
+            self.rejected["over_rate"] += 1
+            self.last_error = f"0x{frame_id:03X}: over_rate"
+            self._check(frame_id).distrust(t_rx_s)
             return None
         try:
             msg, counter = self.codec.decode_with_counter(frame_id, data, t_rx_s)
@@ -336,16 +418,33 @@ class FrameReceiver:
             self.rejected[exc.reason] += 1
             self.last_error = str(exc)
             return None
-        check = self._counters.get(frame_id)
-        if check is None:
-            check = self._counters[frame_id] = CounterCheck(self.max_counter_delta)
-        reason = check.check(counter, t_rx_s)
+        reason = self._check(frame_id).check(counter, t_rx_s)
         if reason is not None:
             self.rejected[reason] += 1
             self.last_error = f"{type(msg).DBC_NAME}: {reason}"
             return None
         self.accepted += 1
         return msg
+
+    def _check(self, frame_id: int) -> CounterCheck:
+        check = self._counters.get(frame_id)
+        if check is None:
+            check = self._counters[frame_id] = CounterCheck(
+                self.max_counter_delta, cycle_s=self.codec.cycle_time_s(frame_id)
+            )
+        return check
+
+    def _within_rate(self, frame_id: int, t_rx_s: float) -> bool:
+        try:
+            bucket = self._buckets[frame_id]
+        except KeyError:
+            cycle_s = self.codec.cycle_time_s(frame_id)
+            bucket = None
+            if cycle_s is not None:
+                burst = self.rate_burst_frames + self.receive_period_s / cycle_s
+                bucket = TokenBucket(self.rate_factor / cycle_s, burst)
+            self._buckets[frame_id] = bucket
+        return bucket is None or bucket.take(t_rx_s)
 
     @property
     def rejected_total(self) -> int:

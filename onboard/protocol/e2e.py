@@ -46,6 +46,10 @@ def frame_crc(frame_id: int, payload: bytes) -> int:
 #: (a fast impostor sends many frames in step between two of a slow genuine sensor).
 QUIET_FRAMES = 2 * COUNTER_MODULO
 QUIET_S = 1.0
+#: A frame continues the stream left behind at the last jump only if it comes sooner than this many nominal
+#: cycles after that stream's last frame: later, one sender whose counter went round a lap (16 frames, some
+#: of them lost) would look the same.
+LEFT_STREAM_CYCLES = COUNTER_MODULO // 2
 
 
 @dataclass
@@ -61,7 +65,15 @@ class CounterCheck:
     conflicting sender, and the id is then distrusted: every frame is rejected (``conflicting_sender``: a
     sensor goes stale, a command stream stops, so the actuators' watchdog holds them neutral) until
     :data:`QUIET_FRAMES` frames in a row come in step from one stream alone and :data:`QUIET_S` passed
-    without a conflict (``t_s``: the receive time).
+    without a conflict (``t_s``: the receive time). The receiver also calls :meth:`distrust` for a frame
+    over the id's rate (:meth:`onboard.protocol.codec.FrameReceiver.check_rates`).
+
+    ``cycle_s``, the id's nominal cycle time: the left-behind stream is only claimed within
+    :data:`LEFT_STREAM_CYCLES` cycles of its last frame, so lost frames of one sender are never a conflict
+    (two losses 15 frames apart, or a burst of losses, bring its counter round to the one it left): that
+    takes 17 frames, and a sender whose frames are at most COUNTER_MODULO + 1 - LEFT_STREAM_CYCLES = 9 cycles
+    late cannot have sent them within 8 cycles (the rate check's tolerance, 7 cycles plus the drain interval,
+    is within that). With no cycle time, or a receive clock that stands still, any continuation is claimed.
     """
 
     max_delta: int = 1
@@ -69,29 +81,40 @@ class CounterCheck:
     before_jump: int | None = None  # the counter the last jump left behind
     quiet_needed: int = 0  # > 0: distrusted, this many clean frames to go
     conflicts: int = 0
-    conflict_t_s: float = -math.inf  # when the last conflict was seen
+    conflict_t_s: float = -math.inf  # when the last conflict (or over-rate frame) was seen
+    cycle_s: float | None = None
+    last_t_s: float = -math.inf  # when ``last`` was taken
+    before_jump_t_s: float = -math.inf  # when ``before_jump`` was taken
 
     def check(self, counter: int, t_s: float = 0.0) -> str | None:
         """Return None if the counter is acceptable, else the rejection reason; update the state."""
         if self.last is None:
-            self.last = counter
+            self.last, self.last_t_s = counter, t_s
             return None
         delta = (counter - self.last) % COUNTER_MODULO
         if delta == 0:
             return "repeated_counter" if not self.quiet_needed else self._distrusted(clean=False)
         if delta > self.max_delta:
-            prior = self.before_jump
-            self.before_jump, self.last = self.last, counter
-            if prior is not None and 0 < (counter - prior) % COUNTER_MODULO <= self.max_delta:
+            prior, prior_t_s = self.before_jump, self.before_jump_t_s
+            self.before_jump, self.before_jump_t_s = self.last, self.last_t_s
+            self.last, self.last_t_s = counter, t_s
+            recent = self.cycle_s is None or t_s - prior_t_s < LEFT_STREAM_CYCLES * self.cycle_s
+            if prior is not None and recent and 0 < (counter - prior) % COUNTER_MODULO <= self.max_delta:
                 self.conflicts += 1  # it continues the stream the previous jump left: two senders
                 self.quiet_needed, self.conflict_t_s = QUIET_FRAMES, t_s
                 return "conflicting_sender"
             return "jumping_counter" if not self.quiet_needed else self._distrusted(clean=False)
-        self.last = counter
+        self.last, self.last_t_s = counter, t_s
         if self.quiet_needed > 1 or (self.quiet_needed == 1 and t_s - self.conflict_t_s < QUIET_S):
             return self._distrusted(clean=True)
         self.quiet_needed = 0
         return None
+
+    def distrust(self, t_s: float) -> None:
+        """Evidence of a second sender other than the counters (a frame over the id's rate): distrusted as
+        after a conflict, and the quiet time starts again at ``t_s``; the counter state is not moved."""
+        self.quiet_needed = QUIET_FRAMES
+        self.conflict_t_s = max(self.conflict_t_s, t_s)
 
     def _distrusted(self, clean: bool) -> str:
         self.quiet_needed = max(self.quiet_needed - 1, 1) if clean else QUIET_FRAMES

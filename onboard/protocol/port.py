@@ -43,6 +43,9 @@ class BusPort:
         self.bus = bus
         self.drain_budget_frames = drain_budget_frames
         self.drain_capped = 0
+        #: the receiver's rate check reads the bus's arrival times (python-can's timestamps, the wall
+        #: clock) instead of ``clock``: for real time, where a stall of this process must not bunch frames
+        self.rates_on_bus_time = False
         self.codec = codec or Codec()
         self.clock = clock
         self.sender = FrameSender(self.codec)
@@ -96,7 +99,8 @@ class BusPort:
             self.recorder.on_message_received(frame)
         if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
             return None
-        return self.receiver.receive(frame.arbitration_id, bytes(frame.data), self.clock())
+        t_bus_s = frame.timestamp if self.rates_on_bus_time else None
+        return self.receiver.receive(frame.arbitration_id, bytes(frame.data), self.clock(), t_bus_s)
 
     def close(self) -> None:
         if self.recorder is not None:
