@@ -39,6 +39,7 @@ from can.interfaces.virtual import VirtualBus
 from auv_campaign.metrics import run_row
 from auv_campaign.spec import RunSpec
 from hil_sim.bench_program import (
+    BENCH_LISTENS,
     Bench,
     BenchConfig,
     BenchResult,
@@ -59,7 +60,6 @@ from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
 from onboard.core.planner.planner import plan
-from onboard.protocol import messages as m
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
@@ -318,7 +318,7 @@ def _drive(
 ) -> None:
     channel = f"campaign-{os.getpid()}-{next(_channels)}-{uuid.uuid4().hex[:8]}"
     codec = _codec()
-    bench_listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+    bench_listen = [codec.frame_id(c) for c in BENCH_LISTENS]
     bench_port = BusPort(VirtualBus(channel=channel), lambda: bench.state.t_s, bench_listen, codec)
     steps = LockstepBench(bench, bench_port, hil, truth, result)
     # The onboard checks rates as on a vehicle, on the lock-step clock: tick x control period (it runs before
@@ -331,7 +331,7 @@ def _drive(
         [codec.frame_id(c) for c in LISTEN],
         codec,
     )
-    if steps.period_s >= (codec.cycle_time_s(codec.frame_id(m.Sync)) or 0.0) - 1e-9:
+    if codec.rates_checkable(steps.period_s):
         onboard_port.receiver.check_rates(receive_period_s=steps.period_s)
     loop = ControlLoop(onboard_port, autopilot, cfg.loop)
     if loop.plans is not None:

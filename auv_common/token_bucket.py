@@ -25,11 +25,11 @@ class TokenBucket:
         self.tokens = self.burst
 
     def take(self, now_s: float) -> bool:
-        """Spend one token if there is one (the clock going backwards adds none)."""
+        """Spend one token if there is one. A clock that steps back adds no tokens and the bucket goes on
+        from the new time (a wall clock set back an hour must not stop the refill for an hour)."""
         if self.t_s is not None and now_s > self.t_s:
             self.tokens = min(self.burst, self.tokens + (now_s - self.t_s) * self.rate_per_s)
-        if self.t_s is None or now_s > self.t_s:
-            self.t_s = now_s
+        self.t_s = now_s
         if self.tokens < 1.0:
             return False
         self.tokens -= 1.0

@@ -51,7 +51,7 @@ from hil_sim.model.sensors import PositionFix as FixMeasurement
 from hil_sim.model.sim import SimSetup, SimState, initial_state, make_setup
 from hil_sim.model.sim import step as sim_step
 from onboard.protocol import messages as m
-from onboard.protocol.bus import BenchHub, BusConfig, BusUnavailable, open_bus
+from onboard.protocol.bus import BenchHub, BusConfig, BusUnavailable, hub_went_away, open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
@@ -311,6 +311,7 @@ class BenchResult:
     started: bool = False
     onboard_state: str = ""
     failsafe_timeouts: int = 0
+    bus_lost: bool = False  # the hub went away mid-run (exit 1)
     rejected: dict[str, int] = field(default_factory=dict)
     stop_reason: str = ""
     run_wall_time_s: float = 0.0  # wall time from the start of simulated time to the end
@@ -417,12 +418,16 @@ def _heartbeats(uptime_s: float, failsafe: bool) -> list[m.BusMessage]:
     ]
 
 
+#: What the bench listens to (and so its acceptance filters on the hub): the onboard's frames.
+BENCH_LISTENS: tuple[type[m.BusMessage], ...] = (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)
+
+
 def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -> BenchResult:
     """Run the bench until ``stop``, the duration, a stop state, or (lock-step) a missing echo."""
     bench = Bench(cfg)
     hub: BenchHub | None = None
     codec = Codec()
-    listen = [codec.frame_id(c) for c in (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)]
+    listen = [codec.frame_id(c) for c in BENCH_LISTENS]
     filters = None if cfg.bus.record else listen  # a recording bench hears the whole bus
     if bus_override is not None:
         bus = bus_override
@@ -446,6 +451,12 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
             _run_lockstep(bench, port, cfg, stop, writer, result)
         else:
             _run_realtime(bench, port, cfg, stop, writer, result)
+    except Exception as exc:
+        if not hub_went_away(exc):
+            raise
+        result.bus_lost = True
+        result.stop_reason = "bus lost: the CAN hub closed the connection"
+        log.error("%s", result.stop_reason)
     finally:
         result.wall_time_s = time.monotonic() - t_wall0
         if result._t_start_wall:
@@ -707,7 +718,6 @@ def run_main(argv: list[str]) -> int:
     signal.signal(signal.SIGINT, _stop)
     signal.signal(signal.SIGTERM, _stop)
     log.info("bench: %s, %s bus %s", cfg.bench.time_mode, cfg.bus.interface, cfg.bus.channel)
-    code = 0
     try:
         result = run_bench(cfg, stop)
     except (EchoTimeout, BusUnavailable, ConfigError, OSError) as exc:
@@ -723,7 +733,7 @@ def run_main(argv: list[str]) -> int:
     if args.summary_json:
         summary = {k: v for k, v in result.__dict__.items() if not k.startswith("_")}
         Path(args.summary_json).write_text(json.dumps(summary, indent=2))
-    return code
+    return 1 if result.bus_lost else 0
 
 
 def main(argv: list[str]) -> int:

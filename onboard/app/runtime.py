@@ -42,7 +42,7 @@ from onboard.core.params import (
     param_table,
     param_value,
 )
-from onboard.protocol.bus import BusUnavailable, open_bus
+from onboard.protocol.bus import BusUnavailable, hub_went_away, open_bus
 from onboard.protocol.codec import Codec, command_ranges
 from onboard.protocol.messages import (
     AhrsAttitude,
@@ -338,15 +338,14 @@ def run(
     # Frames far above an id's DBC rate are dropped undecoded and the id distrusted (its frames drained once
     # per tick). Not in lock-step on this wall clock (the simulation runs faster than it), nor with a loop
     # faster than the bus contract's control period (the bench's status frames follow the loop).
-    control_cycle_s = codec.cycle_time_s(codec.frame_id(FinStatus)) or 0.0
-    if not lockstep and cfg.loop.period_s >= control_cycle_s - 1e-9:
+    if not lockstep and codec.rates_checkable(cfg.loop.period_s):
         port.receiver.check_rates(receive_period_s=cfg.loop.period_s)
         port.rates_on_bus_time = True  # the frames' own arrival times: a stall of this process bunches none
     elif not lockstep:
         log.warning(
             "frame rate check off: the loop runs at %.0f Hz, faster than the bus contract's %.0f Hz",
             cfg.loop.rate_hz,
-            1.0 / control_cycle_s,
+            1.0 / codec.control_cycle_s,
         )
     loop = ControlLoop(port, autopilot, cfg.loop)
     if link is not None:
@@ -368,7 +367,7 @@ def run(
         log.error("bus lost: %s: %s", type(exc).__name__, exc)
         code = 1
     except Exception as exc:
-        if type(exc).__name__ != "WebsocketClosed":  # python-can-remote's "hub went away"
+        if not hub_went_away(exc):
             log.exception("onboard loop stopped by an unexpected error")
         else:
             log.error("bus lost: the bench hub closed the connection")

@@ -15,6 +15,7 @@ environment fallbacks are never consulted.
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import json
 import logging
@@ -130,6 +131,11 @@ class BusUnavailable(Exception):
     """The bus could not be opened before the caller gave up."""
 
 
+def hub_went_away(exc: BaseException) -> bool:
+    """Whether ``exc`` is python-can-remote's "the hub closed the connection" (a plain Exception there)."""
+    return type(exc).__name__ == "WebsocketClosed"
+
+
 def acceptance_filters(listen_ids: Iterable[int] | None) -> list[CanFilter] | None:
     """python-can ``can_filters`` that pass exactly the standard ids ``listen_ids`` (None: every frame).
 
@@ -234,17 +240,21 @@ class BenchHub:
             stdout=subprocess.PIPE,
             text=True,
         )
+        bus: can.BusABC | None = None
         try:
             private = self._answer("host_port", start_timeout_s, f"{host}:{port}")
             cfg = BusConfig(interface="remote", channel=f"ws://{host}:{private}/")
-            self.bus: can.BusABC = open_bus(cfg, timeout_s=start_timeout_s, listen_ids=listen_ids)
+            bus = open_bus(cfg, timeout_s=start_timeout_s, listen_ids=listen_ids)
             assert self._proc.stdin is not None
             self._proc.stdin.write("open\n")
             self._proc.stdin.flush()
             self.port: int = self._answer("port", start_timeout_s, f"{host}:{port}")
         except BaseException:
+            if bus is not None:
+                bus.shutdown()
             self.close()
             raise
+        self.bus: can.BusABC = bus
         self.url = f"ws://{host}:{self.port}/"
         log.info("bench CAN hub listening on %s (channel %s, pid %d)", self.url, hub_channel, self._proc.pid)
 
@@ -262,9 +272,10 @@ class BenchHub:
     def close(self) -> None:
         """Stop the hub (the host's :attr:`bus` is its user's to shut down, e.g. by its port)."""
         proc = self._proc
-        if proc.poll() is None:
-            if proc.stdin is not None:
+        if proc.stdin is not None and not proc.stdin.closed:
+            with contextlib.suppress(OSError):  # the hub may have ended already: a broken pipe
                 proc.stdin.close()  # the hub's signal to stop
+        if proc.poll() is None:
             try:
                 proc.wait(timeout=3.0)
             except subprocess.TimeoutExpired:

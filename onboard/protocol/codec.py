@@ -27,7 +27,7 @@ import cantools.database
 
 from auv_common.token_bucket import TokenBucket
 from onboard.protocol.e2e import CRC_BYTE_INDEX, CounterCheck, TxCounters, frame_crc
-from onboard.protocol.messages import ALL_MESSAGE_TYPES, BusMessage
+from onboard.protocol.messages import ALL_MESSAGE_TYPES, BusMessage, Sync
 
 DBC_PATH: Final = Path(__file__).with_name("isimi100.dbc")
 FRAME_LENGTH: Final = 8
@@ -226,6 +226,16 @@ class Codec:
         the sensors, 1 s for the heartbeats). None for an event frame or an unknown id."""
         spec = self._by_id.get(frame_id)
         return spec.cycle_s if spec is not None else None
+
+    @property
+    def control_cycle_s(self) -> float:
+        """The bus contract's control period (SYNC's cycle time; commands and status follow it)."""
+        return self.cycle_time_s(self.frame_id(Sync)) or 0.0
+
+    def rates_checkable(self, loop_period_s: float) -> bool:
+        """Whether a receiver in a loop of ``loop_period_s`` may check rates: not in one faster than the
+        contract's control period (the frames that follow the loop would then exceed their cycles)."""
+        return loop_period_s >= self.control_cycle_s - 1e-9
 
     def encode(self, msg: BusMessage, counter: int) -> tuple[int, bytes]:
         """Encode ``msg`` with alive counter ``counter`` (0..15); returns (arbitration_id, 8 bytes).

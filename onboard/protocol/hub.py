@@ -49,7 +49,7 @@ class AcceptanceVirtualBus(VirtualBus):
     dropped: ClassVar[int] = 0
 
     def __init__(self, channel: Any = "channel-0", **kwargs: Any) -> None:
-        kwargs.setdefault("rx_queue_size", CLIENT_QUEUE_FRAMES)
+        kwargs["rx_queue_size"] = CLIENT_QUEUE_FRAMES  # whatever a client asks for in its bus request
         super().__init__(channel=channel, **kwargs)
         self._by_queue[id(self.queue)] = self
 
@@ -94,8 +94,11 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     from can_remote import RemoteServer
 
-    done = threading.Event()
-    signal.signal(signal.SIGTERM, lambda _s, _f: done.set())
+    if INTERFACE not in can.interfaces.VALID_INTERFACES:
+        _tell_parent(
+            {"error": f"python-can has no interface {INTERFACE!r}: reinstall the package (pip install -e .)"}
+        )
+        return 3
     # The parent joins first, through a port of its own, so it hears every frame any other node sends (a
     # node that starts first and sends at once must not talk to nobody); then the public port opens.
     private = RemoteServer(host=args.host, port=0, interface=INTERFACE, channel=args.channel)
@@ -112,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
         return 3
     _serve(server)
     _tell_parent({"port": server.server_port})
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda _s, _f: done.set())  # before: SIGTERM's default, ending at once
 
     def parent_watch() -> None:
         sys.stdin.read()  # returns at EOF: the parent closed the pipe or ended
@@ -121,8 +126,16 @@ def main(argv: list[str] | None = None) -> int:
     done.wait()
     server.shutdown()
     server.server_close()
+    if AcceptanceVirtualBus.dropped:
+        sys.stderr.write(
+            f"CAN hub: {AcceptanceVirtualBus.dropped} frames dropped for clients that did not read\n"
+        )
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # run from the module python-can loads the bus class from (its entry point), not from __main__: one
+    # AcceptanceVirtualBus, one count of the frames dropped
+    from onboard.protocol.hub import main as module_main
+
+    sys.exit(module_main())

@@ -5,7 +5,7 @@ The loop talks to it only through :class:`VehicleLink` (thread-safe, cheap; see 
 sent, ``notify(notes)`` for what the core has to say, ``publish(snapshot)`` for telemetry, ``mission()``
 for the accepted mission. Everything else happens in the I/O thread on the monotonic wall clock:
 
-- :mod:`~onboard.adapters.mavlink.transport`: sockets, peers, signing, the receive budget, the fan-out;
+- :mod:`~onboard.adapters.mavlink.transport`: sockets, peers, signing, the receive shares, the fan-out;
 - :mod:`~onboard.adapters.mavlink.mission_service`: uploads/downloads, the validator, the store;
 - :mod:`~onboard.adapters.mavlink.commands`: COMMAND_LONG/INT -> core commands, the request queue, ACKs;
 - :mod:`~onboard.adapters.mavlink.telemetry`: HEARTBEAT, the streams, the state table;
@@ -118,9 +118,18 @@ class VehicleLink:
     def _boot_signing_key(self) -> bytes | None:
         """The key a SETUP_SIGNING set (persisted; it may have turned signing off), else the configured."""
         set_by_setup, key = self.store.load_signing_key()
+        configured = self.config.signing_key_file
         if set_by_setup:
+            log.warning(
+                "signing %s, as the last SETUP_SIGNING left it (the state directory%s)",
+                "on" if key is not None else "off",
+                f"; it wins over signing_key_file {configured}" if configured else "",
+            )
             return key
-        return load_signing_key(self.config.signing_key_file) if self.config.signing_key_file else None
+        if configured:
+            log.info("signing on: the key of %s", configured)
+            return load_signing_key(configured)
+        return None
 
     def _save_signing_timestamp(self, timestamp: int) -> None:
         """Persist a newer signing timestamp; a failure is logged (once) and the packet still used: a
@@ -243,7 +252,7 @@ class VehicleLink:
         """One received message (I/O thread; tests call it directly)."""
         kind = msg.get_type()
         if kind == "HEARTBEAT":
-            # with signing on, only a signed heartbeat is the operator's (an unsigned one makes a listener)
+            # with signing on, only a signed heartbeat is the operator's
             if msg.type == mavlink.MAV_TYPE_GCS and (msg.get_signed() or not self.transport.signing):
                 self._gcs_heard(now)
             return
@@ -259,7 +268,7 @@ class VehicleLink:
 
     # ---- SETUP_SIGNING ---------------------------------------------------------------------------
     def _setup_signing(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:
-        """Set (or, all-zero key and timestamp, clear) the signing key, as the MAVLink signing guide says:
+        """Set (or, an all-zero key, clear) the signing key, as the MAVLink signing guide says:
         taken only signed with the current key or over a secure endpoint (``[mavlink] secure_endpoints``),
         persisted (it wins over the key file at the next boot), then used for everything that follows."""
         if not addressed_to(msg, self.config.system_id, self.config.component_id):
@@ -275,7 +284,7 @@ class VehicleLink:
             return
         key = bytes(msg.secret_key)
         timestamp = int(msg.initial_timestamp)
-        off = not any(key) and timestamp == 0
+        off = not any(key)  # the spec's "all zero" (a zero key with a timestamp: no key anyone should use)
         try:
             self.store.save_signing_key(None if off else key)
         except OSError as exc:
@@ -283,7 +292,8 @@ class VehicleLink:
             log.error("%s", reason)
             self.transport.statustext(Severity.ERROR, reason, to=sender)
             return
-        self.transport.set_signing(None if off else key, timestamp)
+        # never below the newest timestamp accepted before, across a restart too (the persisted floor)
+        self.transport.set_signing(None if off else key, max(timestamp, self.store.load_signing_timestamp()))
         text = (
             f"signing off (SETUP_SIGNING from {who})"
             if off

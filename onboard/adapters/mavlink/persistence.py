@@ -74,13 +74,17 @@ class InvalidStateFile(ValueError):
     """A state file whose content is unusable; the message says why (e.g. "item 3: frame 99 unsupported")."""
 
 
-def write_json_atomic(path: Path, data: Any, durable: bool = True) -> None:
+def write_json_atomic(path: Path, data: Any, durable: bool = True, mode: int = 0o644) -> None:
     """Write ``data`` as JSON to ``path`` atomically and (``durable``) synced to the disk; without it the
-    file survives a process crash or kill, not a power loss (for a value written many times a second)."""
+    file survives a process crash or kill, not a power loss (for a value written many times a second).
+    ``mode``: the file's permissions from its creation on (before the umask; 0o600 for a secret)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with tmp.open("w", encoding="utf-8") as f:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, mode)
+        if not mode & 0o077:
+            os.fchmod(fd, mode)  # private: also when a stale tmp of a wider mode was left there
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
             json.dump(data, f, indent=1, allow_nan=False)
             f.flush()
             if durable:
@@ -355,17 +359,21 @@ class StateStore:
     # ---- signing ---------------------------------------------------------------------------------
     def save_signing_key(self, key: bytes | None) -> None:
         """Persist the key a SETUP_SIGNING set (None: signing turned off); it wins over the configured key
-        file at the next boot. Owner-only (0600), atomic and synced."""
-        path = self.dir / SIGNING_KEY_FILE
-        write_json_atomic(path, {"version": FORMAT_VERSION, "key": key.hex() if key is not None else None})
-        os.chmod(path, 0o600)
+        file at the next boot. Owner-only (0600) from its creation, atomic and synced."""
+        data = {"version": FORMAT_VERSION, "key": key.hex() if key is not None else None}
+        write_json_atomic(self.dir / SIGNING_KEY_FILE, data, mode=0o600)
 
     def load_signing_key(self) -> tuple[bool, bytes | None]:
-        """(set, key): whether a SETUP_SIGNING set the key, and the key (None: off). An invalid file is set
-        aside (and the configured key applies)."""
+        """(set, key): whether a SETUP_SIGNING set the key, and the key (None: off). A file that exists but
+        cannot be read or is invalid is set aside and fails closed: a random key nobody holds, persisted in
+        its place (only what signing lets through unsigned gets in; a SETUP_SIGNING over a secure endpoint
+        sets a new key)."""
+        path = self.dir / SIGNING_KEY_FILE
+        if not os.path.lexists(path):
+            return False, None
         data = self._load(SIGNING_KEY_FILE)
         if data is None:
-            return False, None
+            return True, self._lock_signing()
         try:
             text = _shape(data, "key", object)
             if text is None:
@@ -378,7 +386,17 @@ class StateStore:
             return True, key
         except Exception as exc:  # anything in untrusted content means invalid
             self.quarantine(SIGNING_KEY_FILE, _why(exc))
-            return False, None
+            return True, self._lock_signing()
+
+    def _lock_signing(self) -> bytes:
+        """A key nobody holds, in force and persisted in place of the file set aside (so the next boots fail
+        closed too, until a SETUP_SIGNING over a secure endpoint sets a key)."""
+        key = os.urandom(32)
+        try:
+            self.save_signing_key(key)
+        except OSError as exc:
+            log.error("signing key file not replaced (%s): this boot refuses all but unsigned HEARTBEAT", exc)
+        return key
 
     def save_signing_timestamp(self, timestamp: int) -> None:
         """Persist the newest signing timestamp accepted (10 us units since 2015): after a restart no packet

@@ -1,4 +1,4 @@
-"""Sockets, peers, the selector, signing, the receive budget and the send fan-out (the I/O thread's tools).
+"""Sockets, peers, the selector, signing, the receive shares and the send fan-out (the I/O thread's tools).
 
 :class:`Transport` owns the endpoint sockets (``udpout``, ``udpin``, ``tcpin`` and its connections), decodes
 every UDP datagram on its own (:func:`onboard.adapters.mavlink.wire.decode_datagram`) with the signature
@@ -10,8 +10,10 @@ of ids two ground stations may share). :meth:`Transport.wake` (any thread) inter
 :meth:`Transport.wait`.
 
 Receive shares (floods starve no one): every known peer (a learned address, the ``udpout`` target, each TCP
-connection) has its own token bucket of ``rx_peer_per_s`` and all other addresses share one of
-``rx_strangers_per_s``; a datagram beyond its sender's share is dropped unparsed (counted as ``shed``).
+connection, at most :data:`MAX_PEERS` of them) has its own token bucket of ``rx_peer_per_s`` and all other
+addresses share one of ``rx_strangers_per_s``; a datagram beyond its sender's share is dropped unparsed
+(counted as ``shed``), and one of many frames spends a token for each. With signing on, only a signed
+message makes its sender a peer.
 A socket is read until empty, at most :data:`READ_BATCH` datagrams per wake-up, so the kernel's buffer does
 not overflow (which would drop the genuine ground station's datagrams with the flood's) and the timers keep
 running between batches.
@@ -166,7 +168,9 @@ class Transport:
                     s = _Socket(kind, sock)
                 else:
                     sock.bind(("0.0.0.0", 0))
-                    s = _Socket(kind, sock, fixed=(host, port), share=self._peer_share())
+                    # by address, as recvfrom gives it back (a name would never match, and be learned again)
+                    fixed = (socket.gethostbyname(host), port)
+                    s = _Socket(kind, sock, fixed=fixed, share=self._peer_share())
                 sock.setblocking(False)
             s.secure = spec in self.config.secure_endpoints
             self._sockets.append(s)
@@ -287,6 +291,10 @@ class Transport:
                 conn, _addr = s.sock.accept()
             except OSError:
                 return
+            if sum(c.kind == "tcpconn" for c in self._sockets) >= MAX_PEERS:
+                self.rx.peers_refused += 1  # as many connections as UDP peers: no more
+                conn.close()
+                return
             conn.setblocking(False)
             parser = mavlink.MAVLink(None)
             parser.robust_parsing = True
@@ -311,8 +319,14 @@ class Transport:
                 self.rx.shed += 1
                 self.rx.shed_from_peers += known
                 continue
-            for msg, _frame in decode_datagram(data, self.rx, self._verifier):
-                self._learn(s, addr, now)
+            frames = decode_datagram(data, self.rx, self._verifier, s.secure)
+            for k, (msg, _frame) in enumerate(frames):
+                if k and not share.take(now):  # a datagram of many frames spends a token for each
+                    self.rx.shed += len(frames) - k
+                    self.rx.shed_from_peers += known * (len(frames) - k)
+                    break
+                if msg.get_signed() or self._verifier is None:  # with signing, only the signed make peers
+                    self._learn(s, addr, now)
                 self._dispatch(msg, now, (s.serial, addr))
 
     def _read_tcp(self, s: _Socket) -> None:
@@ -339,7 +353,7 @@ class Transport:
                 self.rx.malformed += 1
                 continue
             frame = bytes(msg.get_msgbuf())
-            if not accept_frame(frame, msg, self.rx, self._verifier):
+            if not accept_frame(frame, msg, self.rx, self._verifier, s.secure):
                 continue
             self.rx.packets += 1
             self._dispatch(msg, now, (s.serial, None))

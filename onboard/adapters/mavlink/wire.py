@@ -37,20 +37,31 @@ __all__ = [
 MAGIC_V1 = 0xFE
 
 #: The messages taken unsigned while signing is on, as the spec allows: a radio cannot sign its RADIO_STATUS,
-#: and a HEARTBEAT only makes its sender a peer that hears the telemetry (it keeps no GCS link alive: an
-#: unsigned heartbeat is no sign of the operator). Nothing unsigned can command, upload or set.
+#: and a HEARTBEAT says nothing. Neither makes its sender a peer nor keeps a GCS link alive (an unsigned
+#: heartbeat is no sign of the operator); nothing unsigned can command, upload or set.
 UNSIGNED_ALLOWED = frozenset({mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS})
+#: A datagram longer than this is dropped unread (counted): a ground station sends one frame (at most 280
+#: bytes) per datagram, a few at most; 64 kB of garbage would cost the link's thread 0.2 s to scan.
+MAX_DATAGRAM_BYTES = 2048
+#: A datagram is read no further after this many malformed spots (a genuine one has none).
+MAX_MALFORMED_PER_DATAGRAM = 4
 
 
 def accept_frame(
-    frame: bytes, msg: mavlink.MAVLink_message, stats: RxStats, verifier: SigningVerifier | None
+    frame: bytes,
+    msg: mavlink.MAVLink_message,
+    stats: RxStats,
+    verifier: SigningVerifier | None,
+    secure: bool = False,
 ) -> bool:
     """Whether a decoded frame is used: always without signing; with it, when signed with our key and fresh
-    (``msg.get_signed()`` then True), or unsigned and in :data:`UNSIGNED_ALLOWED` (counted)."""
+    (``msg.get_signed()`` then True), or unsigned and in :data:`UNSIGNED_ALLOWED` (counted), or an
+    unsigned SETUP_SIGNING over a secure endpoint (``secure``: how a lost key is replaced)."""
     if verifier is None:
         return True
     if frame[0] != MAGIC_V2 or not frame[2] & IFLAG_SIGNED:
-        if msg.get_msgId() in UNSIGNED_ALLOWED:
+        mid = msg.get_msgId()
+        if mid in UNSIGNED_ALLOWED or (secure and mid == mavlink.MAVLINK_MSG_ID_SETUP_SIGNING):
             stats.unsigned_accepted += 1
             return True
     if not verifier.verify(frame, stats):
@@ -71,9 +82,10 @@ class RxStats:
     unsigned_accepted: int = 0  # HEARTBEAT / RADIO_STATUS taken unsigned while signing is on
     bad_signature: int = 0
     old_timestamp: int = 0
-    shed: int = 0  # datagrams (TCP: messages) dropped unparsed: the sender's receive share was used up
+    shed: int = 0  # datagrams (TCP: messages, after parsing) dropped: the sender's receive share was used up
     shed_from_peers: int = 0  # of those, from known peers (the rest from strangers)
-    peers_refused: int = 0  # new addresses not learned as peers: the table was full of live ones
+    peers_refused: int = 0  # new addresses (TCP connections) refused as peers: the table was full
+    oversize: int = 0  # datagrams longer than MAX_DATAGRAM_BYTES, dropped unread
 
 
 def _frame_length(data: bytes, i: int) -> int | None:
@@ -89,14 +101,22 @@ def _frame_length(data: bytes, i: int) -> int | None:
 
 
 def decode_datagram(
-    data: bytes, stats: RxStats, verifier: SigningVerifier | None = None
+    data: bytes, stats: RxStats, verifier: SigningVerifier | None = None, secure: bool = False
 ) -> list[tuple[mavlink.MAVLink_message, bytes]]:
-    """All valid messages in one datagram, each with its raw frame; everything else is counted."""
+    """All valid messages in one datagram, each with its raw frame; everything else is counted. A datagram
+    over :data:`MAX_DATAGRAM_BYTES` is not read, one is read no further after
+    :data:`MAX_MALFORMED_PER_DATAGRAM` malformed spots (``secure``: see :func:`accept_frame`)."""
     stats.datagrams += 1
     out: list[tuple[mavlink.MAVLink_message, bytes]] = []
+    if len(data) > MAX_DATAGRAM_BYTES:
+        stats.oversize += 1
+        return out
     parser = mavlink.MAVLink(None)  # fresh per datagram: no state carries over
     i, n = 0, len(data)
+    malformed_before = stats.malformed
     while i < n:
+        if stats.malformed - malformed_before >= MAX_MALFORMED_PER_DATAGRAM:
+            break
         if data[i] not in (MAGIC_V1, MAGIC_V2):
             j = i + 1
             while j < n and data[j] not in (MAGIC_V1, MAGIC_V2):
@@ -126,7 +146,7 @@ def decode_datagram(
             i += 1
             continue
         i += length
-        if not accept_frame(frame, msg, stats, verifier):
+        if not accept_frame(frame, msg, stats, verifier, secure):
             continue
         stats.packets += 1
         out.append((msg, frame))

@@ -151,3 +151,40 @@ def test_a_forged_far_future_timestamp_does_not_lock_the_ground_station_out(
         assert _answers(f"udpout:127.0.0.1:{v.port}", KEY)
     finally:
         v.stop()
+
+
+def test_with_signing_on_unsigned_heartbeats_make_no_peers_and_a_lost_key_is_replaced_over_usb(
+    tmp_path: Path,
+) -> None:
+    from onboard.adapters.mavlink.transport import MAX_PEERS
+
+    (tmp_path / "key").write_text(KEY.hex())
+    v = Vehicle(
+        tmp_path / "state",
+        signing_key_file=str(tmp_path / "key"),
+        endpoints=("udpin:127.0.0.1:0", "tcpin:127.0.0.1:0"),
+        secure_endpoints=("tcpin:127.0.0.1:0",),
+    ).start()
+    udp, tcp = f"udpout:127.0.0.1:{v.link.ports[0]}", f"tcp:127.0.0.1:{v.link.ports[1]}"
+    try:
+        # GIVEN more unsigned heartbeat senders than the peer table holds
+        unsigned = mavlink.MAVLink(None, 66, 1)
+        beat = mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(unsigned)
+        socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(MAX_PEERS + 4)]
+        for s in socks:
+            s.sendto(beat, ("127.0.0.1", v.link.ports[0]))
+        time.sleep(0.3)
+        # THEN they are taken (counted) but none is a peer, and the ground station with the key is answered
+        assert v.link.stats()["unsigned_accepted"] >= len(socks) and v.link.stats()["peers_refused"] == 0
+        assert _answers(udp, KEY)
+        for s in socks:
+            s.close()
+        # WHEN the key is lost: an unsigned SETUP_SIGNING over the secure endpoint sets a new one
+        c = _client(tcp)
+        c.send(mavlink.MAVLink_setup_signing_message(1, 1, NEW_KEY, signing_timestamp_now()))
+        time.sleep(0.3)
+        c.close()
+        assert not _answers(udp, KEY)
+        assert _answers(udp, NEW_KEY)
+    finally:
+        v.stop()

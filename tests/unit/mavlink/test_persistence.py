@@ -6,6 +6,7 @@ import json
 import logging
 import math
 import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -248,3 +249,28 @@ def test_the_signing_timestamp_round_trips_and_a_bad_file_is_set_aside(tmp_path:
     (tmp_path / "signing.json").write_text('{"version": 1, "timestamp": -5}')
     bad = StateStore(tmp_path)
     assert bad.load_signing_timestamp() == 0 and bad.quarantined()
+
+
+def test_a_signing_key_is_owner_only_from_its_creation_and_round_trips(tmp_path: Path) -> None:
+    store = StateStore(tmp_path)
+    old_umask = os.umask(0)  # even with no umask at all
+    try:
+        store.save_signing_key(bytes(range(32)))
+    finally:
+        os.umask(old_umask)
+    path = tmp_path / "signing_key.json"
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert store.load_signing_key() == (True, bytes(range(32)))
+    store.save_signing_key(None)
+    assert store.load_signing_key() == (True, None)  # off, by a SETUP_SIGNING
+
+
+@pytest.mark.parametrize("content", ["{not json", '{"version": 1, "key": "abcd"}', '{"version": 1}'])
+def test_a_signing_key_file_that_cannot_be_used_fails_closed(tmp_path: Path, content: str) -> None:
+    (tmp_path / "signing_key.json").write_text(content)
+    store = StateStore(tmp_path)
+    set_, key = store.load_signing_key()
+    # THEN signing stays on with a key nobody holds (never off), also at the next boot, and the file is set
+    # aside and announced
+    assert set_ and key is not None and len(key) == 32
+    assert len(store.quarantined()) == 1 and StateStore(tmp_path).load_signing_key() == (True, key)

@@ -125,4 +125,33 @@ def test_a_token_bucket_refills_at_its_rate_up_to_its_burst() -> None:
     assert [bucket.take(0.0) for _ in range(3)] == [True, True, False]
     assert bucket.take(0.05) is False and bucket.take(0.1) is True  # 0.1 s: one token back
     assert [bucket.take(100.0) for _ in range(3)] == [True, True, False]  # never more than the burst
-    assert bucket.take(50.0) is False  # the clock going back adds nothing
+    assert bucket.take(50.0) is False  # the clock going back adds nothing ...
+    assert bucket.take(50.1) is True  # ... and the refill goes on from there (not from 100 s)
+
+
+def test_a_datagram_too_long_is_not_read_and_one_of_many_frames_spends_a_token_each() -> None:
+    vehicle = _Vehicle(rx_peer_per_s=100, rx_strangers_per_s=50)
+    gcs, stranger = _socket(), _socket()
+    try:
+        gcs.sendto(_heartbeat(201), ("127.0.0.1", vehicle.port))
+        vehicle.pump()
+        # a stranger's 60 kB of markers (0.2 s to scan) is dropped unread
+        stranger.sendto(b"\xfe" * 60_000, ("127.0.0.1", vehicle.port))
+        # the peer packs 60 heartbeats in one datagram: its share's burst (20) is taken, the rest shed
+        gcs.sendto(_heartbeat(201) * 60, ("127.0.0.1", vehicle.port))
+        vehicle.pump()
+        rx = vehicle.transport.rx
+        assert rx.oversize == 1 and rx.malformed == 0
+        assert len(vehicle.heard) == 1 + 20 and rx.shed_from_peers == 40
+    finally:
+        vehicle.close()
+        gcs.close()
+        stranger.close()
+
+
+def test_a_datagram_of_garbage_is_read_no_further_than_a_few_malformed_spots() -> None:
+    from onboard.adapters.mavlink.wire import MAX_MALFORMED_PER_DATAGRAM, RxStats, decode_datagram
+
+    stats = RxStats()
+    assert decode_datagram(b"\xfe\x01" * 1000, stats) == []
+    assert stats.malformed == MAX_MALFORMED_PER_DATAGRAM

@@ -6,8 +6,10 @@ import itertools
 import time
 
 import can
+import pytest
 from can.interfaces.virtual import VirtualBus
 
+from onboard.protocol import hub
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BusConfig, acceptance_filters, open_bus
 from onboard.protocol.codec import Codec
@@ -51,11 +53,14 @@ def test_an_in_process_bus_leaves_the_filtering_to_the_port() -> None:
         sender.shutdown()
 
 
-def test_the_hub_queues_a_frame_only_for_clients_that_accept_it_and_never_without_bound() -> None:
+def test_the_hub_queues_a_frame_only_for_clients_that_accept_it_and_never_without_bound(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(hub, "CLIENT_QUEUE_FRAMES", 10)
     channel = f"hub-{next(_channels)}"
     flooder = AcceptanceVirtualBus(channel)
     listener = AcceptanceVirtualBus(channel, can_filters=acceptance_filters([0x100]))
-    slow = AcceptanceVirtualBus(channel, rx_queue_size=10)  # hears everything, never reads
+    slow = AcceptanceVirtualBus(channel, rx_queue_size=0)  # asks for no bound, hears everything, never reads
     try:
         dropped_before = AcceptanceVirtualBus.dropped
         for _ in range(50):
