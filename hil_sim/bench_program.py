@@ -437,6 +437,11 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
     else:
         bus = open_bus(cfg.bus, stop=stop, listen_ids=filters)
     port = BusPort(bus, time.monotonic, listen, codec, record=cfg.bus.record or None)
+    if cfg.bench.time_mode == "realtime" and codec.rates_checkable(bench.setup.control_period_s):
+        # as the onboard does: the onboard's frames far above their DBC rate are dropped, on their bus
+        # arrival times. Not in lock-step: there the onboard's heartbeat comes every tick before the start
+        port.receiver.check_rates(receive_period_s=bench.setup.control_period_s)
+        port.rates_on_bus_time = True
     writer = None
     log_file = None
     if cfg.bench.truth_log:
