@@ -46,7 +46,10 @@ def _impostor(
             if heartbeat is not None and k % 10 == 0:
                 port.send(m.OnboardHeartbeat(heartbeat, 1.0))
             port.send(m.FinCmd(0.3, 0.0, 0.0))
-            port.send(m.PropCmd(30.0, m.ActuatorMode.ARMED))
+            # SAFE for the first 0.1 s, as the onboard does: it clears the actuators' failsafe, latched by
+            # their watchdog when the bench ran 5 periods before the first command (any node may send it)
+            safe = k * period_s < 0.1
+            port.send(m.PropCmd(0.0, m.ActuatorMode.SAFE) if safe else m.PropCmd(30.0, m.ActuatorMode.ARMED))
             k += 1
             time.sleep(period_s)
     finally:
