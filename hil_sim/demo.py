@@ -8,7 +8,7 @@ y < 0.1 m).
 
 from __future__ import annotations
 
-import tempfile
+import shutil
 from pathlib import Path
 
 from hil_sim.scenario import SCENARIOS, RunOptions, plot_scenario, run_scenario
@@ -28,8 +28,10 @@ def main(out_dir: str = "out/demo") -> int:
     results = []
     for name in ("paper-straight", "paper-turn"):
         with console.status(f"flying {name} (bench + firmware in lock-step)..."):
-            work = tempfile.mkdtemp(prefix=f"auv-demo-{name}-")
-            result = run_scenario(SCENARIOS[name], RunOptions(controller="improved", workdir=work))
+            work = out / "runs" / name  # the logs beside the figures, replaced by each run (none in /tmp)
+            shutil.rmtree(work, ignore_errors=True)
+            work.mkdir(parents=True)
+            result = run_scenario(SCENARIOS[name], RunOptions(controller="improved", workdir=str(work)))
             result["figures"] = plot_scenario(result, out)
         results.append(result)
     table = Table(title="ISiMI100 closed loop vs the paper (improved controller, track guidance, basin)")
