@@ -654,7 +654,9 @@ def _run_parser() -> argparse.ArgumentParser:
     p.add_argument("--config", help=f"bench TOML (default {DEFAULT_CONFIG_PATH})")
     p.add_argument("--mode", choices=["realtime", "lockstep"], help="time mode (overrides [bench] time_mode)")
     p.add_argument("--channel", help="bus channel (overrides [bus] channel), e.g. ws://127.0.0.1:54701/")
-    p.add_argument("--record", help="write every frame to this .blf/.asc file")
+    p.add_argument(
+        "--record", help="write every frame to this .blf, .asc or .log (candump -l: cantools reads it) file"
+    )
     p.add_argument("--truth-log", help="CSV of truth and commands, one row per control period")
     p.add_argument("--start", help="initial pose X,Y,DEPTH,YAW_DEG (NED m, deg)")
     p.add_argument("--current", help="SPEED_MPS,DIR_DEG (the direction the water flows towards)")

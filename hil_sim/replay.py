@@ -1,7 +1,8 @@
-"""``auv-hil replay FILE``: play a recorded ``.blf``/``.asc`` frame log back onto the bench bus.
+"""``auv-hil replay FILE``: play a recorded ``.blf``/``.asc``/``.log`` frame log back onto the bench bus.
 
 The bench hosts the hub as usual (``--channel``, default the bench hub), then sends every frame of the log
-with its recorded timing (scaled by ``--speed``) using python-can's ``LogReader`` and ``MessageSync``.
+(python-can's ``LogReader``) with its recorded spacing divided by ``--speed`` (20: twenty times faster),
+with a progress bar. The pacing is done here: python-can's ``MessageSync`` has no speed factor.
 ``--ids`` limits the replay to some arbitration ids (e.g. only the sensor frames, to drive a firmware
 under test with a recorded sea run).
 """
@@ -12,36 +13,53 @@ import argparse
 import logging
 import sys
 import threading
+import time
+from collections.abc import Callable
 
 import can
 
 from auv_common.config import ConfigError
-from onboard.protocol.bus import DEFAULT_HUB_CHANNEL, DEFAULT_REMOTE_CHANNEL, BenchHub
+from onboard.protocol.bus import DEFAULT_HUB_CHANNEL, DEFAULT_REMOTE_CHANNEL, FRAME_LOG_SUFFIXES, BenchHub
 
 log = logging.getLogger("hil_sim.replay")
 
 
 def replay(
-    path: str, bus: can.BusABC, speed: float, ids: frozenset[int] | None, stop: threading.Event
+    path: str,
+    bus: can.BusABC,
+    speed: float,
+    ids: frozenset[int] | None,
+    stop: threading.Event,
+    on_frame: Callable[[int, int], None] | None = None,
 ) -> int:
-    """Send the frames of ``path`` on ``bus`` with their recorded spacing / ``speed``; returns the count."""
+    """Send the frames of ``path`` on ``bus`` with their recorded spacing / ``speed``; returns the count.
+    ``on_frame(done, total)`` after each frame of the log (sent or filtered out)."""
+    frames = list(can.LogReader(path))
     sent = 0
-    reader = can.LogReader(path)
-    for msg in can.MessageSync(reader, timestamps=True, gap=0.0, skip=3600.0 / speed):
+    t0_log = frames[0].timestamp if frames else 0.0
+    t0 = time.monotonic()
+    for k, msg in enumerate(frames, 1):
+        delay = t0 + (msg.timestamp - t0_log) / speed - time.monotonic()
+        if delay > 0.0 and stop.wait(delay):
+            break
         if stop.is_set():
             break
-        if ids is not None and msg.arbitration_id not in ids:
-            continue
-        bus.send(
-            can.Message(arbitration_id=msg.arbitration_id, data=msg.data, is_extended_id=msg.is_extended_id)
-        )
-        sent += 1
+        if ids is None or msg.arbitration_id in ids:
+            frame = can.Message(
+                arbitration_id=msg.arbitration_id, data=msg.data, is_extended_id=msg.is_extended_id
+            )
+            bus.send(frame)
+            sent += 1
+        if on_frame is not None:
+            on_frame(k, len(frames))
     return sent
 
 
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="auv-hil replay", description=__doc__)
-    parser.add_argument("file", help="a .blf or .asc frame log (auv-hil run --record / [bus] record)")
+    parser.add_argument(
+        "file", help="a .blf, .asc or candump .log frame log (auv-hil run --record / [bus] record)"
+    )
     parser.add_argument("--channel", default=DEFAULT_REMOTE_CHANNEL, help="bench hub to host and play onto")
     parser.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default 1)")
     parser.add_argument(
@@ -50,8 +68,8 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
-        if not args.file.endswith((".blf", ".asc")):
-            raise ConfigError(f"{args.file}: expected a .blf or .asc log")
+        if not args.file.endswith(FRAME_LOG_SUFFIXES):
+            raise ConfigError(f"{args.file}: expected a .blf, .asc or .log frame log")
         if args.speed <= 0:
             raise ConfigError("--speed must be > 0")
         ids = frozenset(int(v, 0) for v in args.ids.split(",")) if args.ids else None
@@ -60,8 +78,19 @@ def main(argv: list[str]) -> int:
         print(f"auv-hil replay: {exc}", file=sys.stderr)
         return 2
     bus = hub.bus
+    from rich.progress import Progress
+
     try:
-        sent = replay(args.file, bus, args.speed, ids, threading.Event())
+        with Progress(transient=True) as progress:
+            task = progress.add_task(f"replaying {args.file} at x{args.speed:g}", total=None)
+            sent = replay(
+                args.file,
+                bus,
+                args.speed,
+                ids,
+                threading.Event(),
+                lambda done, total: progress.update(task, completed=done, total=total),
+            )
     finally:
         bus.shutdown()
         hub.close()

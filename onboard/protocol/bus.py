@@ -37,6 +37,8 @@ from auv_common.config import ConfigError, require
 
 log = logging.getLogger(__name__)
 
+#: The frame logs python-can writes and reads: BLF, Vector ASCII, and candump -l (which cantools reads).
+FRAME_LOG_SUFFIXES = (".blf", ".asc", ".log")
 DEFAULT_HUB_PORT = 54701
 DEFAULT_REMOTE_CHANNEL = f"ws://127.0.0.1:{DEFAULT_HUB_PORT}/"
 DEFAULT_HUB_CHANNEL = "isimi100-bench"
@@ -53,7 +55,8 @@ class BusConfig:
         udp_multicast: the multicast group address.
     hub_channel: the in-hub virtual channel (used by the program that hosts the hub).
     udp_port, hop_limit: udp_multicast only; hop_limit must be 0.
-    record: path of a ``.blf``/``.asc`` frame log written with python-can's loggers ("" = off).
+    record: path of a ``.blf``/``.asc``/``.log`` (candump -l, which cantools reads) frame log written with
+        python-can's loggers ("" = off).
     retry_log_interval_s: while waiting for a bus that is not there yet, one log line this often.
     """
 
@@ -70,8 +73,8 @@ class BusConfig:
         require(bool(self.hub_channel), "hub_channel must not be empty")
         if self.record:
             require(
-                self.record.endswith((".blf", ".asc")),
-                f"record must end in .blf or .asc, got {self.record!r}",
+                self.record.endswith(FRAME_LOG_SUFFIXES),
+                f"record must end in .blf, .asc or .log, got {self.record!r}",
             )
         if self.interface == "remote":
             remote_endpoint(self.channel)

@@ -24,7 +24,7 @@ from onboard.protocol.port import BusPort
         ({"interface": "udp_multicast", "channel": "10.0.0.1"}, "not a multicast group"),
         ({"interface": "udp_multicast", "channel": "not-an-ip"}, "not an IP address"),
         ({"bitrate": 500000}, "unknown key bitrate"),
-        ({"record": "frames.txt"}, "must end in .blf or .asc"),
+        ({"record": "frames.txt"}, "must end in .blf, .asc or .log"),
     ],
 )
 def test_bad_bus_configuration_is_one_clear_error(table: dict, message: str) -> None:
