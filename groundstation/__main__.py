@@ -36,6 +36,7 @@ from groundstation.mavclient import (
     LinkError,
     MavClient,
     TransferResult,
+    UnknownParameter,
     state_from_heartbeat,
 )
 
@@ -293,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
         target = args.output or args.tlog.with_suffix(".png")
         try:
             counts = plot_tlog(args.tlog, target)
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             out.done({"ok": False, "error": str(exc)}, f"[red]error:[/] {exc}")
             return 2
         out.done({"ok": True, "output": str(target), **counts}, f"wrote {target} ({counts})")
@@ -320,8 +321,16 @@ def main(argv: list[str] | None = None) -> int:
             if args.cmd == "wait-ready":
                 return _wait_ready(client, out, max(0.0, args.ready_timeout - (time.monotonic() - t0)), t0)
             return _run(args, client, out, goals, fences, tlog)
+    except UnknownParameter as exc:
+        out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, f"[red]refused:[/] {exc}")
+        return EXIT_REFUSED
     except LinkError as exc:
         out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, f"[red]error:[/] {exc}")
+        return EXIT_ERROR
+    except OSError as exc:  # the link could not be opened: e.g. the port is taken by another station
+        why = exc.strerror or str(exc)
+        text = f"cannot open {args.connect}: {why}"
+        out.done({"ok": False, "error": text, "tlog": str(tlog)}, f"[red]error:[/] {_esc(text)}")
         return EXIT_ERROR
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED

@@ -61,6 +61,10 @@ class LinkError(RuntimeError):
     """No answer from the vehicle, or an unusable connection URL."""
 
 
+class UnknownParameter(LinkError):
+    """The vehicle has no parameter of that name (a refusal, not a link problem)."""
+
+
 @dataclass(frozen=True)
 class Item:
     """One mission item in MISSION_ITEM_INT encoding (local x/y = metres * 1e4; global = degrees * 1e7)."""
@@ -660,6 +664,8 @@ class MavClient:
         return dict(values[i] for i in sorted(values))
 
     def param_get(self, name: str, *, resend_s: float = 0.5, retries: int = 5) -> float:
+        """PARAM_REQUEST_READ by name. No answer (MAVLink's way of saying "unknown"): the list is asked for
+        and :class:`UnknownParameter` raised if the name is not in it, else :class:`LinkError`."""
         ts, tc = self.target
         for _ in range(retries):
             self.send(mavlink.MAVLink_param_request_read_message(ts, tc, name.encode("ascii"), -1))
@@ -668,6 +674,12 @@ class MavClient:
                 m = self.recv(left)
                 if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
                     return float(m.param_value)
+        try:
+            names = self.param_list(quiet_s=0.5, timeout_s=3.0)
+        except LinkError:
+            names = {}
+        if names and name not in names:
+            raise UnknownParameter(f"no such parameter {name} (the vehicle has {len(names)})")
         raise LinkError(f"no value for parameter {name}{self.signing_note()}")
 
     def param_set(
@@ -676,6 +688,8 @@ class MavClient:
         """PARAM_SET; returns (accepted, value now in force). A refused set is answered with the old value."""
         ts, tc = self.target
         want = struct.unpack("<f", struct.pack("<f", value))[0] if math.isfinite(value) else value
+        t_sent = time.monotonic()
+        unknown = f"unknown parameter {name}"
         for _ in range(retries):
             self.send(
                 mavlink.MAVLink_param_set_message(
@@ -688,6 +702,8 @@ class MavClient:
                 if m is not None and m.get_type() == "PARAM_VALUE" and _pname(m.param_id) == name:
                     got = float(m.param_value)
                     return got == want, got
+                if any(t.text == unknown for t in self.texts_since(t_sent)):  # the vehicle's answer
+                    raise UnknownParameter(f"no such parameter {name} (the vehicle says: {unknown})")
         raise LinkError(f"no answer to setting {name}{self.signing_note()}")
 
 

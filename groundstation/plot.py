@@ -9,7 +9,10 @@ from groundstation.tlog import read_tlog
 
 
 def plot_tlog(tlog: str | Path, out: str | Path, vehicle_system: int = 1) -> dict[str, int]:
-    """Draw track (east vs north), depth, cross-track and yaw error over time into ``out`` (PNG/SVG/PDF)."""
+    """Draw track (east vs north), depth, cross-track and yaw error over time into ``out`` (PNG/SVG/PDF).
+
+    Raises ValueError (with the reason) for a file that holds no MAVLink packet or no position of the
+    vehicle: no empty picture."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -19,7 +22,9 @@ def plot_tlog(tlog: str | Path, out: str | Path, vehicle_system: int = 1) -> dic
     nav_t, xtrack, depth_err, yaw_err = [], [], [], []
     goals_x, goals_y = [], []
     t0: float | None = None
+    packets = 0
     for t, m in read_tlog(tlog):
+        packets += 1
         if m.get_srcSystem() != vehicle_system:
             if m.get_type() == "MISSION_ITEM_INT" and m.frame == 1 and m.mission_type == 0:
                 goals_x.append(m.x / 1e4)
@@ -37,6 +42,10 @@ def plot_tlog(tlog: str | Path, out: str | Path, vehicle_system: int = 1) -> dic
             xtrack.append(m.xtrack_error)
             depth_err.append(m.alt_error)
             yaw_err.append(((m.target_bearing - m.nav_bearing + 180) % 360) - 180)
+    if not packets:
+        raise ValueError(f"{tlog}: not a tlog (no MAVLink packet in it)")
+    if not xs:
+        raise ValueError(f"{tlog}: no position of vehicle {vehicle_system} in it: nothing to plot")
     fig, ax = plt.subplots(2, 2, figsize=(11, 8))
     ax[0][0].plot(ys, xs, "-", label="track")
     if goals_x:

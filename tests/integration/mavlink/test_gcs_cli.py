@@ -455,3 +455,27 @@ def test_the_ground_station_draws_its_own_system_id() -> None:
 
     ids = {own_system_id() for _ in range(200)}
     assert ids <= set(OWN_SYSTEM_IDS) and len(ids) > 20 and 255 not in ids
+
+
+def test_cli_edges_are_one_line_with_a_reason(vehicle: Vehicle, tmp_path: Path, capsys) -> None:
+    # an unknown parameter: "no such parameter", exit 1 (the vehicle refused), for a set and for a get
+    code, out = run(capsys, vehicle, tmp_path, "params", "set", "NOPE", "1")
+    assert code == 1 and "no such parameter NOPE" in out["error"], out
+    code, out = run(capsys, vehicle, tmp_path, "params", "get", "NOPE")
+    assert code == 1 and "no such parameter NOPE" in out["error"], out
+    # a file that is no tlog: refused with the reason, exit 2, no picture
+    bogus = tmp_path / "notes.txt"
+    bogus.write_text("not a telemetry log\n")
+    code, out = run(capsys, vehicle, tmp_path, "plot", str(bogus), "-o", str(tmp_path / "p.png"))
+    assert code == 2 and "not a tlog" in out["error"] and not (tmp_path / "p.png").exists(), out
+    # a listening port another station holds: one line, exit 2 (was a traceback)
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", 0))
+    try:
+        port = taken.getsockname()[1]
+        code = main(["--connect", f"udpin:127.0.0.1:{port}", "--json", "--tlog-dir", str(tmp_path / "t"),
+                     "--timeout", "1", "arm"])  # fmt: skip
+        out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert code == 2 and "cannot open" in out["error"] and "in use" in out["error"], out
+    finally:
+        taken.close()
