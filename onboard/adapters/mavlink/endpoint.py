@@ -104,6 +104,7 @@ class VehicleLink:
             self.missions.shape,
             lambda: rx.malformed + rx.bad_signature + rx.unsigned_rejected,
             progress=self.missions.progress(),
+            fence_circles=lambda: self.missions.mission().obstacles,
         )
         self.commands = CommandService(config, self.transport, self.requests, self.missions, self.telemetry)
         self.params = ParamService(config, self.transport, self.requests, self.store, params, param_values)

@@ -31,6 +31,7 @@ from onboard.adapters.mavlink.mission_protocol import MissionLimits, local_to_gl
 from onboard.adapters.mavlink.transport import Transport
 from onboard.core import commands as core
 from onboard.core.commands import Verdict
+from onboard.core.mission.model import Obstacle
 from onboard.core.mission.state import MissionState
 from onboard.protocol.conventions import body_to_ned
 
@@ -112,8 +113,10 @@ class Telemetry:
         shape: Callable[[], tuple[int, int]],
         error_count: Callable[[], int] = lambda: 0,
         progress: int | None = None,
+        fence_circles: Callable[[], tuple[Obstacle, ...]] = tuple,
     ) -> None:
         self.config = config
+        self._fence_circles = fence_circles
         self.transport = transport
         self._clock = clock
         self._shape = shape
@@ -158,6 +161,21 @@ class Telemetry:
             return self._snapshot
 
     # ---- I/O thread ----------------------------------------------------------------------------
+    def _sensor_bits(self) -> tuple[int, int, int]:
+        """SYS_STATUS (present, enabled, health): only what is really known. The geofence (the mission's
+        fence circles) is present and enabled while there are circles, and healthy unless the vehicle's
+        position is inside one (MAVLink's health bit for it means "not breached"). A bit not present is
+        reported healthy, as ArduPilot does, so no station reads it as a breach (MAVProxy said "fence
+        breach" on connect when every health bit was 0). The sensors stay unreported: SYS_STATUS has no bit
+        for a DVL, and the vehicle's reason for not being ready is in its heartbeat and STATUSTEXT."""
+        fence = mavlink.MAV_SYS_STATUS_GEOFENCE
+        circles = self._fence_circles()
+        if not circles:
+            return 0, 0, fence
+        s = self.snapshot()
+        inside = any(math.hypot(s.x_m - c.x_m, s.y_m - c.y_m) < c.radius_m for c in circles)
+        return fence, fence, 0 if inside else fence
+
     def poll(self, now: float) -> None:
         while True:
             with self._lock:
@@ -272,9 +290,11 @@ class Telemetry:
         elif msg_id == mavlink.MAVLINK_MSG_ID_SYS_STATUS:
             load = _i(s.loop_load * 1000.0, 0, 65535)
             errors = self._error_count()
+            present, enabled, health = self._sensor_bits()
             m = mavlink.MAVLink_sys_status_message(
-                0, 0, 0, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535), _i(s.overruns, 0, 65535), 0, 0, 0
-            )
+                present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
+                _i(s.overruns, 0, 65535), 0, 0, 0,
+            )  # fmt: skip
         elif msg_id == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
             self.send_mission_current()
             return
