@@ -5,7 +5,8 @@
             params [get NAME | set NAME VALUE] | monitor | plot TLOG
 
 URL: udpin:HOST:PORT (default udpin:0.0.0.0:14550, where the vehicle sends), udpout:HOST:PORT, tcp:HOST:PORT.
-Every session is recorded as a .tlog in --tlog-dir (default ~/.local/share/isimi100/tlogs).
+Every call is recorded in the day's .tlog, gcs-YYYY-MM-DD.tlog in --tlog-dir (default
+~/.local/share/isimi100/tlogs).
 
 The ground station tells the truth it is told: every command prints the vehicle's MAV_RESULT and, for a
 refusal, the vehicle's reason (the STATUSTEXT it sends right after the ACK); an upload prints the MISSION_ACK
@@ -98,7 +99,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--connect", default="udpin:0.0.0.0:14550", help="udpin:H:P | udpout:H:P | tcp:H:P")
     ap.add_argument("--json", action="store_true", help="machine-readable output")
-    ap.add_argument("--tlog-dir", type=Path, default=None, help="where the session .tlog goes")
+    ap.add_argument("--tlog-dir", type=Path, default=None, help="where the day's .tlog goes")
     ap.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the vehicle")
     ap.add_argument("--signing-key", type=Path, help="sign with this key (32 bytes or 64 hex characters)")
     ap.add_argument(
@@ -253,15 +254,11 @@ def _upload_plans(
     return results, note
 
 
-def _new_tlog(tlog_dir: Path) -> Path:
-    """A session's own .tlog (time of day to the millisecond, pid; never one of an earlier session)."""
-    now = time.time()
-    ms = int(now * 1000) % 1000
-    stem = f"gcs-{time.strftime('%Y%m%d-%H%M%S', time.localtime(now))}.{ms:03d}-{os.getpid()}"
-    path, n = tlog_dir / f"{stem}.tlog", 1
-    while path.exists():
-        path, n = tlog_dir / f"{stem}-{n}.tlog", n + 1
-    return path
+def _session_tlog(tlog_dir: Path) -> Path:
+    """The day's .tlog, ``gcs-YYYY-MM-DD.tlog`` (local date): every call of the day appends to it (one
+    session's log, not one file per command; each record is one append, so two stations at once do not
+    tear each other's records)."""
+    return tlog_dir / f"gcs-{time.strftime('%Y-%m-%d')}.tlog"
 
 
 #: The system ids a ground station draws its own from (255, the stock default, and below 200 are left to
@@ -310,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     tlog_dir = args.tlog_dir or default_tlog_dir()
     tlog_dir.mkdir(parents=True, exist_ok=True)
-    tlog = _new_tlog(tlog_dir)
+    tlog = _session_tlog(tlog_dir)
     try:
         system_id = args.system_id if args.system_id is not None else own_system_id()
         with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id) as client:

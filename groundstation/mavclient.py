@@ -212,7 +212,8 @@ class MavClient:
         self.component_id = component_id
         self.target: tuple[int, int] = (1, 1)
         self._queue: collections.deque[Msg] = collections.deque()
-        self._tlog = tlog.open("ab") if tlog is not None else None
+        # unbuffered: each record is one append (O_APPEND), whole, also when another process appends too
+        self._tlog = tlog.open("ab", buffering=0) if tlog is not None else None
         self._hb_period_s = heartbeat_period_s
         self._hb_next = 0.0
         self._confirmation = 0
