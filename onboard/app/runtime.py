@@ -254,6 +254,16 @@ def main(argv: list[str] | None = None) -> int:
         level=getattr(logging, str(args.log_level).upper(), logging.INFO),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    # From the first moment: a SIGINT / SIGTERM during start-up (loading, rewriting the state files,
+    # logging) stops the program cleanly once start-up is through, never as a KeyboardInterrupt mid-way
+    stop = threading.Event()
+
+    def _stop(signum: int, _frame: Any) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
     mavlink_on = not args.no_mavlink
     try:
         sets = list(args.set)
@@ -277,15 +287,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for line in boot.log_lines:
         log.info("%s", line)
-
-    stop = threading.Event()
-
-    def _stop(signum: int, _frame: Any) -> None:
-        log.info("signal %d: stopping", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, _stop)
-    signal.signal(signal.SIGTERM, _stop)
     try:
         return run(boot, mission, args.autostart, stop, store=store, summary_json=args.summary_json)
     except (ConfigError, BusUnavailable) as exc:
