@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import threading
 import time
@@ -70,6 +71,8 @@ def main(argv: list[str]) -> int:
     try:
         if not args.file.endswith(FRAME_LOG_SUFFIXES):
             raise ConfigError(f"{args.file}: expected a .blf, .asc or .log frame log")
+        if not os.path.isfile(args.file):
+            raise ConfigError(f"{args.file}: no such file")
         if args.speed <= 0:
             raise ConfigError("--speed must be > 0")
         ids = frozenset(int(v, 0) for v in args.ids.split(",")) if args.ids else None
