@@ -161,7 +161,7 @@ class Telemetry:
             return self._snapshot
 
     # ---- I/O thread ----------------------------------------------------------------------------
-    def _sensor_bits(self) -> tuple[int, int, int]:
+    def _sensor_bits(self, s: VehicleSnapshot) -> tuple[int, int, int]:
         """SYS_STATUS (present, enabled, health): only what is really known. The geofence (the mission's
         fence circles) is present and enabled while there are circles, and healthy unless the vehicle's
         position is inside one (MAVLink's health bit for it means "not breached"). A bit not present is
@@ -172,7 +172,6 @@ class Telemetry:
         circles = self._fence_circles()
         if not circles:
             return 0, 0, fence
-        s = self.snapshot()
         inside = any(math.hypot(s.x_m - c.x_m, s.y_m - c.y_m) < c.radius_m for c in circles)
         return fence, fence, 0 if inside else fence
 
@@ -290,7 +289,7 @@ class Telemetry:
         elif msg_id == mavlink.MAVLINK_MSG_ID_SYS_STATUS:
             load = _i(s.loop_load * 1000.0, 0, 65535)
             errors = self._error_count()
-            present, enabled, health = self._sensor_bits()
+            present, enabled, health = self._sensor_bits(s)
             m = mavlink.MAVLink_sys_status_message(
                 present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
                 _i(s.overruns, 0, 65535), 0, 0, 0,

@@ -17,8 +17,7 @@ FENCE = mavlink.MAV_SYS_STATUS_GEOFENCE
 def _bits(circles: tuple[Obstacle, ...], x_m: float, y_m: float) -> tuple[int, int, int]:
     transport: Any = None  # the bits are computed, not sent
     tel = Telemetry(MavlinkConfig(), transport, lambda: 0.0, lambda: (0, 0), fence_circles=lambda: circles)
-    tel.publish(VehicleSnapshot(x_m=x_m, y_m=y_m))
-    return tel._sensor_bits()
+    return tel._sensor_bits(VehicleSnapshot(x_m=x_m, y_m=y_m))
 
 
 def test_no_fence_is_not_present_and_reads_healthy_so_no_station_sees_a_breach() -> None:
