@@ -10,6 +10,8 @@ venv: $(STAMP)
 
 # Re-install only when the project's dependencies change (idempotent and fast when nothing changed).
 $(STAMP): pyproject.toml
+	command -v chromium >/dev/null && command -v chromedriver >/dev/null || \
+		{ apt-get update -qq && apt-get install -y -qq chromium chromium-driver >/dev/null; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
