@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from onboard.core.commands import Command
 from onboard.core.mission.model import Goal
 from onboard.core.mission.state import MissionState
+from onboard.core.planner.path import Path
 
 # The one vocabulary of states; the index of a state in this tuple is HEARTBEAT custom_mode byte 0.
 MISSION_STATES: tuple[str, ...] = tuple(s.name for s in MissionState)
@@ -39,6 +40,8 @@ class VehicleSnapshot:
     sends MISSION_ITEM_REACHED whenever it increases. ``armed`` is ``Autopilot.actuators_live`` (HEARTBEAT
     SAFETY_ARMED is this bit and nothing else); ``ready`` / ``ready_reason`` say whether START would be
     accepted as far as the vehicle's own checks go; ``reason`` says why the last transition happened.
+    ``path`` is the path the autopilot flies now (``path_kind`` "goal" to goal ``path_goal_index``, or
+    "loiter"), None when it flies none; a new plan is a new object (the link compares by identity).
     """
 
     t_s: float = 0.0
@@ -77,3 +80,6 @@ class VehicleSnapshot:
     failsafe: str | None = None
     overruns: int = 0
     loop_load: float = NAN  # fraction of the tick period used by the last tick (0..1+)
+    path: Path | None = None
+    path_kind: str = ""
+    path_goal_index: int = -1

@@ -105,4 +105,7 @@ def snapshot(ap: Autopilot, out: StepOutput, now_s: float, overruns: int = 0) ->
         propeller_saturated=bool(c.flags & ActuatorFlag.PROPELLER_LIMIT),
         failsafe=out.status.reason if out.status.state is MissionState.ABORT else None,
         overruns=overruns,
+        path=ap.path,
+        path_kind=ap.path_kind if ap.path is not None else "",
+        path_goal_index=ap.path_goal_index if ap.path is not None else -1,
     )
