@@ -42,7 +42,8 @@ MAV_RESULT_NAMES = {
 MAV_STATE_NAMES = {
     v: k for k, v in vars(mavlink).items() if k.startswith("MAV_STATE_") and isinstance(v, int)
 }
-STATE_NAMES = ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")
+#: The vehicle's HEARTBEAT custom_mode: ArduSub's mode numbers (pymavlink's ``mode_mapping_sub``).
+ARDUSUB_MANUAL, ARDUSUB_AUTO, ARDUSUB_POSHOLD, ARDUSUB_CIRCLE, ARDUSUB_SURFACE = 19, 3, 16, 7, 9
 #: HEARTBEAT system_status values meaning "not ready yet" (the vehicle reports BOOT until it could start).
 NOT_READY_STATES = (mavlink.MAV_STATE_UNINIT, mavlink.MAV_STATE_BOOT)
 STATUSTEXT_LEN = 50
@@ -157,9 +158,16 @@ class StatusTextAssembler:
 
 
 def state_from_heartbeat(msg: Msg) -> str:
-    """Mission state from the vehicle's HEARTBEAT (custom_mode byte 0 carries its index)."""
-    idx = int(msg.custom_mode) & 0xFF
-    return STATE_NAMES[idx] if idx < len(STATE_NAMES) else f"?{idx}"
+    """Mission state from the vehicle's HEARTBEAT: its ArduSub mode, SAFETY_ARMED and system_status (the
+    vehicle's README, "Modes": MANUAL is IDLE or, armed, ARMED; AUTO RUNNING; POSHOLD HOLD; CIRCLE COMPLETE;
+    SURFACE is ABORT when CRITICAL, else COMPLETE)."""
+    mode = int(msg.custom_mode)
+    if mode == ARDUSUB_MANUAL:
+        return "ARMED" if msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED else "IDLE"
+    if mode == ARDUSUB_SURFACE:
+        return "ABORT" if msg.system_status >= mavlink.MAV_STATE_CRITICAL else "COMPLETE"
+    named = {ARDUSUB_AUTO: "RUNNING", ARDUSUB_POSHOLD: "HOLD", ARDUSUB_CIRCLE: "COMPLETE"}
+    return named.get(mode, f"?{mode}")
 
 
 class MavClient:

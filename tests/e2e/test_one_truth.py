@@ -8,7 +8,7 @@ its truth log) and `auv-onboard run` (the firmware, lock-step, a temporary state
 reports RUNNING, then as fast as both processes go (tens of times real time), so a 10 m leg takes a fraction
 of a second: the commands that must meet a running vehicle are sent right after the START's ACK.
 
-Heartbeats against the truth: a HEARTBEAT's SAFETY_ARMED bit and its mission state (custom_mode byte 0)
+Heartbeats against the truth: a HEARTBEAT's SAFETY_ARMED bit and its mission state (read back from its mode)
 come from one snapshot, i.e. one control tick, and the truth row of that tick carries the same state (the
 firmware sends ONBOARD_HEARTBEAT on every state change, in the tick). So "every HEARTBEAT with SAFETY_ARMED
 clear coincides with 0 rps" is checked exactly, with no clock alignment: every truth row in a state that a

@@ -18,7 +18,7 @@ from onboard.core.mission.model import Goal
 from onboard.core.mission.state import MissionState
 from onboard.core.planner.path import Path
 
-# The one vocabulary of states; the index of a state in this tuple is HEARTBEAT custom_mode byte 0.
+# The one vocabulary of states (their names).
 MISSION_STATES: tuple[str, ...] = tuple(s.name for s in MissionState)
 NAN = math.nan
 

@@ -15,8 +15,8 @@ Mapping (seq = MAVLink mission seq; a stored home item shifts seq = goal index +
 - ARM_DISARM p1 1 -> :class:`Arm`, 0 -> :class:`Disarm` (forced when p2 = 21196), else DENIED.
 - MISSION_START p1 first_item: <= 0 or NaN -> ``Start(None)`` (the current goal, i.e. the progress), else
   ``Start(goal of seq)``; a seq beyond the mission is DENIED.
-- DO_SET_MODE with a PX4 custom mode (p1 has MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, p2 main mode AUTO, p3 sub
-  mode) -> ``SetMode``: MISSION "mission", LOITER "loiter", RTL "surface", READY "ready"; else DENIED.
+- DO_SET_MODE with a custom mode, ArduSub's or PX4's layout (:mod:`~onboard.adapters.mavlink.modes`, the
+  one table) -> ``SetMode`` "mission", "loiter", "surface" or "ready"; else DENIED with the modes there are.
 - DO_PAUSE_CONTINUE p1 0 -> :class:`Hold`, 1 -> :class:`Resume`.
 - NAV_RETURN_TO_LAUNCH -> ``Abort("return to surface")``; DO_FLIGHTTERMINATION p1 > 0.5 ->
   ``Abort("termination")``.
@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from onboard.adapters.mavlink import modes
 from onboard.adapters.mavlink.api import Request
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_protocol import goal_of_seq
@@ -50,8 +51,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-PX4_MAIN_AUTO = 4
-PX4_SUB_READY, PX4_SUB_LOITER, PX4_SUB_MISSION, PX4_SUB_RTL = 1, 3, 4, 5
 FORCE_DISARM_MAGIC = 21196
 LOOP_NOT_RUNNING = "the control loop is not running"
 
@@ -62,12 +61,6 @@ MAV_RESULT: dict[Outcome, int] = {
     Outcome.DENIED: mavlink.MAV_RESULT_DENIED,
     Outcome.FAILED: mavlink.MAV_RESULT_FAILED,
     Outcome.UNSUPPORTED: mavlink.MAV_RESULT_UNSUPPORTED,
-}
-_SUB_MODES: dict[int, core.ModeName] = {
-    PX4_SUB_MISSION: "mission",
-    PX4_SUB_LOITER: "loiter",
-    PX4_SUB_RTL: "surface",
-    PX4_SUB_READY: "ready",
 }
 _LINK_ONLY = frozenset(
     {
@@ -225,14 +218,9 @@ def _map(cmd: int, p: list[float], seqs: Seqs, source: str) -> core.Command | Ve
             return _no_item(int(first), offset, n)
         return core.Start(index, source=source)
     if cmd == mavlink.MAV_CMD_DO_SET_MODE:
-        base, main, sub = int(_num(p, 0)), int(_num(p, 1)), int(_num(p, 2))
-        if not base & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            return core.denied("only PX4 custom modes (param1 with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)")
-        if main != PX4_MAIN_AUTO:
-            return core.denied(f"main mode {main} is not supported (AUTO {PX4_MAIN_AUTO} only)")
-        mode = _SUB_MODES.get(sub)
-        if mode is None:
-            return core.denied(f"sub mode {sub} is not supported (READY 1, LOITER 3, MISSION 4, RTL 5)")
+        mode = modes.requested_mode(int(_num(p, 0)), int(_num(p, 1)), int(_num(p, 2)))
+        if isinstance(mode, Verdict):
+            return mode
         return core.SetMode(mode, source=source)
     if cmd == mavlink.MAV_CMD_DO_PAUSE_CONTINUE:
         what = _num(p, 0)

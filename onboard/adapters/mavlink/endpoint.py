@@ -18,8 +18,8 @@ request (its verdict is only logged) and a STATUSTEXT; a heartbeat again -> a ST
 regained". When a ground station is first heard, the state files the store set aside at boot are announced
 (one STATUSTEXT each).
 
-MAVSDK / QGroundControl / MAVProxy interoperability: see :mod:`~onboard.adapters.mavlink.commands` (PX4
-custom modes in DO_SET_MODE) and :mod:`~onboard.adapters.mavlink.telemetry` (custom_mode layout,
+MAVSDK / QGroundControl / MAVProxy interoperability: see :mod:`~onboard.adapters.mavlink.modes` (ArduSub's
+mode numbers in HEARTBEAT, ArduSub's or PX4's in DO_SET_MODE) and :mod:`~onboard.adapters.mavlink.telemetry` (
 GLOBAL_POSITION_INT, EXTENDED_SYS_STATE). MAV_CMD_REQUEST_PROTOCOL_VERSION stays UNSUPPORTED (PROTOCOL_VERSION
 is not in pymavlink's ``common`` dialect; QGC then goes by the frames it sees, which are MAVLink 2).
 """

@@ -2,7 +2,10 @@
 
 Spec: https://mavlink.io/en/services/mission.html. Upload is MISSION_COUNT -> MISSION_REQUEST_INT per item ->
 MISSION_ITEM_INT -> MISSION_ACK; the vehicle never sends the deprecated MISSION_REQUEST, but understands a
-legacy MISSION_ITEM and answers a legacy MISSION_REQUEST with MISSION_ITEM_INT (as the spec asks).
+legacy MISSION_ITEM and answers a legacy MISSION_REQUEST with a float MISSION_ITEM, local x/y in metres and
+global in degrees, as the message's definition and ArduPilot do (mavlink/mavlink#1389 would answer
+MISSION_ITEM_INT; MAVProxy reads a local MISSION_ITEM_INT's x/y as degrees * 1e7, so with
+``set wp_use_mission_int 0`` it lists a local mission in metres only this way).
 
 - A missing item is re-requested every ``item_timeout_s`` (0.25 s); after ``upload_timeout_s`` (5 s) without
   progress the upload is cancelled (MISSION_ACK OPERATION_CANCELLED) and the stored plan is unchanged.
@@ -18,8 +21,8 @@ legacy MISSION_ITEM and answers a legacy MISSION_REQUEST with MISSION_ITEM_INT (
   (the final MISSION_ACK), and only MAV_MISSION_ACCEPTED replaces the stored plan. While judging, the
   re-sent final item is ignored (it is answered by the final ACK) and any other upload is DENIED.
 - A re-sent last item after the final ACK is answered with the same ACK again, without side effects.
-- Download is stateless: MISSION_REQUEST_LIST -> MISSION_COUNT; each MISSION_REQUEST_INT / MISSION_REQUEST
-  is answered with MISSION_ITEM_INT (or MISSION_ACK INVALID_SEQUENCE).
+- Download is stateless: MISSION_REQUEST_LIST -> MISSION_COUNT; each MISSION_REQUEST_INT is answered with
+  MISSION_ITEM_INT, each MISSION_REQUEST with MISSION_ITEM (or MISSION_ACK INVALID_SEQUENCE).
 
 Positions: ``MAV_FRAME_LOCAL_NED`` with x, y = metres * 1e4 (MISSION_ITEM_INT) and z = depth (m); the global
 frames (GLOBAL, GLOBAL_INT, GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT: lat/lon * 1e7) are converted to the
@@ -622,25 +625,20 @@ class MissionServer:
         if seq >= len(items):
             return [self._ack(sender, mavlink.MAV_MISSION_INVALID_SEQUENCE, mt)]
         it = items[seq]
+        if msg.get_type() == "MISSION_REQUEST":  # legacy: answered in kind, float metres / degrees
+            scale = LOCAL_SCALE if it.frame == FRAME_LOCAL else GLOBAL_SCALE
+            return [
+                mavlink.MAVLink_mission_item_message(
+                    sender[0], sender[1], seq, it.frame, it.command, 0, it.autocontinue,
+                    it.param1, it.param2, it.param3, it.param4, it.x / scale, it.y / scale, it.z, mt,
+                )
+            ]  # fmt: skip
         return [
             mavlink.MAVLink_mission_item_int_message(
-                sender[0],
-                sender[1],
-                seq,
-                it.frame,
-                it.command,
-                0,
-                it.autocontinue,
-                it.param1,
-                it.param2,
-                it.param3,
-                it.param4,
-                it.x,
-                it.y,
-                it.z,
-                mt,
+                sender[0], sender[1], seq, it.frame, it.command, 0, it.autocontinue,
+                it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mt,
             )
-        ]
+        ]  # fmt: skip
 
     def _on_clear(self, msg: mavlink.MAVLink_message, sender: Sender) -> list[mavlink.MAVLink_message]:
         mt = int(msg.mission_type)

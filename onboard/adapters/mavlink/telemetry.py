@@ -1,9 +1,8 @@
 """HEARTBEAT, the telemetry streams, message intervals and the one table of mission states on MAVLink.
 
-Heartbeat: MAV_TYPE_SUBMARINE, MAV_AUTOPILOT_GENERIC. ``custom_mode`` uses the PX4 layout that MAVSDK decodes
-for a generic autopilot (main mode in byte 2, sub mode in byte 3: AUTO with READY / MISSION / LOITER / RTL),
-and byte 0 carries the index of the state in :data:`~onboard.adapters.mavlink.api.MISSION_STATES` (0 IDLE,
-1 ARMED, 2 RUNNING, 3 HOLD, 4 ABORT, 5 COMPLETE). ``base_mode`` MAV_MODE_FLAG_SAFETY_ARMED is
+Heartbeat: MAV_TYPE_SUBMARINE, MAV_AUTOPILOT_GENERIC. ``custom_mode`` is ArduSub's mode number of the state
+(:mod:`~onboard.adapters.mavlink.modes`, the one table: MANUAL, AUTO, POSHOLD, CIRCLE, SURFACE), which
+MAVProxy shows by name. ``base_mode`` MAV_MODE_FLAG_SAFETY_ARMED is
 ``snapshot.armed`` and nothing else. ``system_status``: CRITICAL in ABORT or with a failsafe, ACTIVE when
 armed, STANDBY when ready and disarmed, BOOT while not ready (before the first valid navigation).
 
@@ -25,7 +24,8 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from onboard.adapters.mavlink.api import MISSION_STATES, VehicleSnapshot
+from onboard.adapters.mavlink import modes
+from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_protocol import MissionLimits, local_to_global, seq_of_goal
 from onboard.adapters.mavlink.transport import Transport
@@ -35,7 +35,6 @@ from onboard.core.mission.model import Obstacle
 from onboard.core.mission.state import MissionState
 from onboard.protocol.conventions import body_to_ned
 
-PX4_MAIN_AUTO = 4
 VERSION = (0, 1, 0)
 CAPABILITIES = (
     mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
@@ -51,25 +50,21 @@ CAPABILITIES = (
 class StateRow:
     """How one mission state looks on MAVLink."""
 
-    sub_mode: int  # PX4 sub mode of main mode AUTO (custom_mode byte 3)
     mission_state: int  # MISSION_CURRENT.mission_state
     in_mission: bool  # MISSION_CURRENT.mission_mode
 
 
 S = MissionState
-#: The ONE table mapping the mission state to custom_mode / MISSION_STATE (MAV_STATE: :func:`system_status`).
+#: The ONE table mapping the mission state to MISSION_STATE (custom_mode: the table of
+#: :mod:`~onboard.adapters.mavlink.modes`; MAV_STATE: :func:`system_status`).
 STATE_TABLE: dict[MissionState, StateRow] = {
-    S.IDLE: StateRow(1, mavlink.MISSION_STATE_NOT_STARTED, False),
-    S.ARMED: StateRow(1, mavlink.MISSION_STATE_NOT_STARTED, False),
-    S.RUNNING: StateRow(4, mavlink.MISSION_STATE_ACTIVE, True),
-    S.HOLD: StateRow(3, mavlink.MISSION_STATE_PAUSED, True),
-    S.ABORT: StateRow(5, mavlink.MISSION_STATE_PAUSED, False),
-    S.COMPLETE: StateRow(1, mavlink.MISSION_STATE_COMPLETE, False),
+    S.IDLE: StateRow(mavlink.MISSION_STATE_NOT_STARTED, False),
+    S.ARMED: StateRow(mavlink.MISSION_STATE_NOT_STARTED, False),
+    S.RUNNING: StateRow(mavlink.MISSION_STATE_ACTIVE, True),
+    S.HOLD: StateRow(mavlink.MISSION_STATE_PAUSED, True),
+    S.ABORT: StateRow(mavlink.MISSION_STATE_PAUSED, False),
+    S.COMPLETE: StateRow(mavlink.MISSION_STATE_COMPLETE, False),
 }
-
-
-def custom_mode(state: MissionState) -> int:
-    return (PX4_MAIN_AUTO << 16) | (STATE_TABLE[state].sub_mode << 24) | MISSION_STATES.index(state.name)
 
 
 def system_status(s: VehicleSnapshot) -> int:
@@ -240,7 +235,7 @@ class Telemetry:
                 mavlink.MAV_TYPE_SUBMARINE,
                 mavlink.MAV_AUTOPILOT_GENERIC,
                 base,
-                custom_mode(s.state),
+                modes.custom_mode(s.state, s.armed),
                 system_status(s),
                 3,
             )

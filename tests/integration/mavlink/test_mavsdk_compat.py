@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
+from pymavlink.mavutil import mode_string_v10
 
 from groundstation.mavclient import MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item
@@ -82,11 +83,11 @@ def test_mavsdk_flight_mode_changes(vehicle: Vehicle) -> None:
         # MissionRaw.start_mission before the armed flag reached MAVSDK: base mode 1
         assert set_mode(c, CUSTOM, MISSION) == mavlink.MAV_RESULT_ACCEPTED
         hb = heartbeat_state(c, "RUNNING")
-        assert (hb.custom_mode >> 16) & 0xFF == AUTO and hb.custom_mode >> 24 == MISSION
+        assert mode_string_v10(hb) == "AUTO"  # the HEARTBEAT speaks ArduSub's modes (MAVProxy's names)
         assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
         # MissionRaw.pause_mission / Action.hold
         assert set_mode(c, ARMED_CUSTOM, LOITER) == mavlink.MAV_RESULT_ACCEPTED
-        assert heartbeat_state(c, "HOLD").custom_mode >> 24 == LOITER
+        assert mode_string_v10(heartbeat_state(c, "HOLD")) == "POSHOLD"
         assert set_mode(c, ARMED_CUSTOM, READY) == mavlink.MAV_RESULT_DENIED  # not a no-op while holding
         # MissionRaw.start_mission again resumes
         assert set_mode(c, ARMED_CUSTOM, MISSION) == mavlink.MAV_RESULT_ACCEPTED
@@ -94,7 +95,7 @@ def test_mavsdk_flight_mode_changes(vehicle: Vehicle) -> None:
         assert set_mode(c, 0, LOITER) == mavlink.MAV_RESULT_DENIED  # no custom-mode flag
         # Action.return_to_launch: AUTO / RTL = abort (return to the surface)
         assert set_mode(c, ARMED_CUSTOM, RTL) == mavlink.MAV_RESULT_ACCEPTED
-        assert heartbeat_state(c, "ABORT").custom_mode >> 24 == RTL
+        assert mode_string_v10(heartbeat_state(c, "ABORT")) == "SURFACE"
 
 
 def test_mavsdk_and_mavproxy_requests(vehicle: Vehicle) -> None:

@@ -105,13 +105,16 @@ def test_upload_round_trip_requests_each_item_and_acks_accepted() -> None:
     assert goals[2].yaw_rad == pytest.approx(-math.pi / 4)
 
 
-def test_download_is_stateless_and_answers_legacy_request_with_item_int() -> None:
+def test_download_is_stateless_and_answers_legacy_request_in_kind() -> None:
     srv = MissionServer(LIMITS)
     upload(srv, [wp(1, 2, 3), wp(4, 5, 6)])
     c = only(srv.handle(mavlink.MAVLink_mission_request_list_message(1, 1, TYPE_MISSION), GCS, 0.0))
     assert c.get_type() == "MISSION_COUNT" and c.count == 2
-    it = only(srv.handle(mavlink.MAVLink_mission_request_message(1, 1, 1, TYPE_MISSION), GCS, 0.0))
+    it = only(srv.handle(mavlink.MAVLink_mission_request_int_message(1, 1, 1, TYPE_MISSION), GCS, 0.0))
     assert it.get_type() == "MISSION_ITEM_INT" and it.seq == 1 and it.x == 40000
+    # a legacy MISSION_REQUEST gets a float MISSION_ITEM, local x/y in metres
+    it = only(srv.handle(mavlink.MAVLink_mission_request_message(1, 1, 1, TYPE_MISSION), GCS, 0.0))
+    assert it.get_type() == "MISSION_ITEM" and it.seq == 1 and (it.x, it.y, it.z) == (4.0, 5.0, 6.0)
     bad = only(srv.handle(mavlink.MAVLink_mission_request_int_message(1, 1, 5, TYPE_MISSION), GCS, 0.0))
     assert bad.type == mavlink.MAV_MISSION_INVALID_SEQUENCE
 

@@ -10,8 +10,11 @@ from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
+from pymavlink.mavutil import mode_string_v10
 
+from groundstation.mavclient import state_from_heartbeat
 from onboard.adapters.mavlink import commands as link_commands
+from onboard.adapters.mavlink import modes
 from onboard.adapters.mavlink.api import MISSION_STATES, VehicleSnapshot
 from onboard.adapters.mavlink.commands import RequestQueue, map_command
 from onboard.adapters.mavlink.config import MavlinkConfig
@@ -67,6 +70,24 @@ def p7(*p: float, fill: float = 0.0) -> list[float]:
         (C.MAV_CMD_DO_SET_MODE, p7(129, 4, 3, fill=NAN), core.SetMode("loiter", SRC)),
         (C.MAV_CMD_DO_SET_MODE, p7(1, 4, 5), core.SetMode("surface", SRC)),
         (C.MAV_CMD_DO_SET_MODE, p7(1, 4, 1), core.SetMode("ready", SRC)),
+        # ArduSub's layout, what MAVProxy's `mode NAME` sends (param2 the mode number, param3 0)
+        (C.MAV_CMD_DO_SET_MODE, p7(1, 3, 0), core.SetMode("mission", SRC)),
+        (C.MAV_CMD_DO_SET_MODE, p7(1, 16, 0), core.SetMode("loiter", SRC)),
+        (C.MAV_CMD_DO_SET_MODE, p7(1, 9, 0), core.SetMode("surface", SRC)),
+        (C.MAV_CMD_DO_SET_MODE, p7(1, 19, 0), core.SetMode("ready", SRC)),
+        (
+            C.MAV_CMD_DO_SET_MODE,
+            p7(1, 4, 0),
+            core.denied("GUIDED is not a mode of this vehicle (modes: AUTO, POSHOLD, SURFACE, MANUAL)"),
+        ),
+        (
+            C.MAV_CMD_DO_SET_MODE,
+            p7(1, 7, 0),
+            core.denied(
+                "CIRCLE is the end of a mission with the loiter end action; "
+                "modes: AUTO, POSHOLD, SURFACE, MANUAL"
+            ),
+        ),
         (C.MAV_CMD_DO_SET_MODE, p7(NAN, 4, 4), core.denied("param1 is not a number")),
         (C.MAV_CMD_DO_SET_MODE, p7(1, NAN, 4), core.denied("param2 is not a number")),
         (C.MAV_CMD_DO_SET_MODE, p7(1, 4, NAN), core.denied("param3 is not a number")),
@@ -349,7 +370,11 @@ def test_notes_become_statustext_chunked_with_id_and_seq(tmp_path: Path) -> None
         # COMPLETE with end_action surface: not armed, whatever the state name suggests
         (VehicleSnapshot(ready=True, armed=False, state=MissionState.COMPLETE), C.MAV_STATE_STANDBY, False),
         (VehicleSnapshot(ready=True, state=MissionState.ABORT), C.MAV_STATE_CRITICAL, False),
-        (VehicleSnapshot(ready=True, armed=True, failsafe="depth"), C.MAV_STATE_CRITICAL, True),
+        (
+            VehicleSnapshot(ready=True, armed=True, state=MissionState.ARMED, failsafe="depth"),
+            C.MAV_STATE_CRITICAL,
+            True,
+        ),
     ],
 )
 def test_heartbeat_tells_the_truth(
@@ -361,13 +386,32 @@ def test_heartbeat_tells_the_truth(
     c.link.telemetry.send_message(C.MAVLINK_MSG_ID_HEARTBEAT)
     (hb,) = c.sent("HEARTBEAT")
     assert bool(hb.base_mode & C.MAV_MODE_FLAG_SAFETY_ARMED) is armed_flag and hb.system_status == status
-    assert hb.custom_mode & 0xFF == MISSION_STATES.index(snap.state.name)
-    assert hb.custom_mode >> 24 == STATE_TABLE[snap.state].sub_mode
+    # the mode by ArduSub's name (what MAVProxy shows), and the ground station reads the state back from it
+    assert mode_string_v10(hb) == modes.mode_name(modes.custom_mode(snap.state, snap.armed))
+    assert not mode_string_v10(hb).startswith("Mode(")
+    assert state_from_heartbeat(hb) == snap.state.name
 
 
 def test_state_table_covers_the_vocabulary() -> None:
     assert set(STATE_TABLE) == set(MissionState)
-    assert MISSION_STATES == ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")  # the GCS's order
+    assert MISSION_STATES == ("IDLE", "ARMED", "RUNNING", "HOLD", "ABORT", "COMPLETE")
+
+
+_S = MissionState
+
+
+@pytest.mark.parametrize(
+    ("state", "armed"),
+    [(_S.IDLE, False), (_S.ARMED, True), (_S.RUNNING, True), (_S.HOLD, True), (_S.ABORT, False),
+     (_S.ABORT, True), (_S.COMPLETE, False), (_S.COMPLETE, True)],
+)  # fmt: skip
+def test_every_state_reads_back_from_its_heartbeat(tmp_path: Path, state: MissionState, armed: bool) -> None:
+    c = Captured(tmp_path)
+    c.link.publish(VehicleSnapshot(ready=True, armed=armed, state=state))
+    c.link.telemetry.send_message(C.MAVLINK_MSG_ID_HEARTBEAT)
+    (hb,) = c.sent("HEARTBEAT")
+    assert state_from_heartbeat(hb) == state.name
+    assert mode_string_v10(hb) in {"MANUAL", "AUTO", "POSHOLD", "CIRCLE", "SURFACE"}
 
 
 def test_body_to_ned() -> None:

@@ -48,6 +48,8 @@ from onboard.adapters.mavlink import bridge
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
 from onboard.adapters.mavlink.mission_protocol import (
+    GLOBAL_SCALE,
+    LOCAL_SCALE,
     TYPE_ALL,
     TYPE_FENCE,
     TYPE_MISSION,
@@ -78,7 +80,15 @@ T0 = 100.0
 # ---- the vehicle, captured -------------------------------------------------------------------------
 #: What the machines look at (telemetry streams, HEARTBEAT, MISSION_CURRENT are not theirs).
 WATCHED = frozenset(
-    {"MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_COUNT", "MISSION_ITEM_INT", "STATUSTEXT", "PARAM_VALUE"}
+    {
+        "MISSION_ACK",
+        "MISSION_REQUEST_INT",
+        "MISSION_COUNT",
+        "MISSION_ITEM_INT",
+        "MISSION_ITEM",
+        "STATUSTEXT",
+        "PARAM_VALUE",
+    }
 )
 
 
@@ -207,6 +217,25 @@ def msg_key(m: mavlink.MAVLink_message) -> tuple[str, ...]:
     """The MissionItem key of a downloaded MISSION_ITEM_INT."""
     return MissionItem(m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z,
                        m.autocontinue).key()  # fmt: skip
+
+
+def _scale(frame: int) -> float:
+    return LOCAL_SCALE if frame == mavlink.MAV_FRAME_LOCAL_NED else GLOBAL_SCALE
+
+
+def legacy_msg_key(m: mavlink.MAVLink_message) -> tuple[str, ...]:
+    """The MissionItem key of a downloaded legacy MISSION_ITEM (float x/y in metres or degrees)."""
+    k = _scale(m.frame)
+    return MissionItem(m.frame, m.command, m.param1, m.param2, m.param3, m.param4, round(m.x * k),
+                       round(m.y * k), m.z, m.autocontinue).key()  # fmt: skip
+
+
+def legacy_key(it: MissionItem) -> tuple[str, ...]:
+    """What ``legacy_msg_key`` gives for a stored item: x/y through the float32 of MISSION_ITEM."""
+    k = _scale(it.frame)
+    f32 = [struct.unpack("<f", struct.pack("<f", v / k))[0] for v in (it.x, it.y)]
+    return MissionItem(it.frame, it.command, it.param1, it.param2, it.param3, it.param4, round(f32[0] * k),
+                       round(f32[1] * k), it.z, it.autocontinue).key()  # fmt: skip
 
 
 def item_msg(seq: int, it: MissionItem, mt: int) -> mavlink.MAVLink_message:
@@ -351,6 +380,8 @@ class MissionMachine(_VehicleMachine):
                 got.append(("COUNT", d, m.count, m.mission_type))
             elif k == "MISSION_ITEM_INT":
                 got.append(("ITEM", d, m.seq, msg_key(m), m.mission_type))
+            elif k == "MISSION_ITEM":
+                got.append(("LEGACY_ITEM", d, m.seq, legacy_msg_key(m), m.mission_type))
             else:
                 got.append((k, d))
         assert got == expected
@@ -611,7 +642,10 @@ class MissionMachine(_VehicleMachine):
         for seq in range(len(items) + 1):
             self.vehicle.rx(request(1, 1, seq, mt), s)
             if seq < len(items):
-                self.check_out([("ITEM", d, seq, items[seq].key(), mt)], [])
+                if legacy:
+                    self.check_out([("LEGACY_ITEM", d, seq, legacy_key(items[seq]), mt)], [])
+                else:
+                    self.check_out([("ITEM", d, seq, items[seq].key(), mt)], [])
             else:
                 self.check_out([("ACK", d, C.MAV_MISSION_INVALID_SEQUENCE, mt)], [])
 
