@@ -28,6 +28,7 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common import mavlink_ftp as ftp
 from auv_common.mavlink_signing import SigningVerifier, signing_timestamp_now
 
 Msg = mavlink.MAVLink_message
@@ -225,6 +226,7 @@ class MavClient:
         self._hb_period_s = heartbeat_period_s
         self._hb_next = 0.0
         self._confirmation = 0
+        self._ftp_seq = 0
         self.rx_errors = 0
         self.on_message: Callable[[Msg], None] | None = None
         self.texts: collections.deque[StatusText] = collections.deque(maxlen=256)
@@ -690,6 +692,96 @@ class MavClient:
         if names and name not in names:
             raise UnknownParameter(f"no such parameter {name} (the vehicle has {len(names)})")
         raise LinkError(f"no value for parameter {name}{self.signing_note()}")
+
+    # ---- MAVLink FTP (read only) ------------------------------------------------------------------
+    def _ftp(
+        self,
+        opcode: int,
+        *,
+        session: int = 0,
+        offset: int = 0,
+        size: int = 0,
+        data: bytes = b"",
+        on_other: Callable[[Msg], None] | None = None,
+        resend_s: float = 0.5,
+        retries: int = 6,
+    ) -> ftp.Packet:
+        """One FTP request, re-sent with the same sequence number until its reply (ACK or NAK) comes."""
+        self._ftp_seq = (self._ftp_seq + 1) & 0xFFFF
+        req = ftp.Packet(self._ftp_seq, session, opcode, size or len(data), 0, 0, offset, data)
+        ts, tc = self.target
+        msg = mavlink.MAVLink_file_transfer_protocol_message(0, ts, tc, req.encode())
+        for _ in range(retries):
+            self.send(msg)
+            deadline = time.monotonic() + resend_s
+            while (left := deadline - time.monotonic()) > 0:
+                m = self.recv(left)
+                if m is None:
+                    continue
+                if m.get_type() != "FILE_TRANSFER_PROTOCOL" or not (self._from_target(m) and self._to_us(m)):
+                    if on_other is not None:
+                        on_other(m)
+                    continue
+                reply = ftp.Packet.decode(m.payload)
+                if reply.seq == (req.seq + 1) & 0xFFFF and reply.req_opcode == opcode:
+                    return reply
+        raise LinkError(f"no FTP answer from the vehicle after {retries} tries{self.signing_note()}")
+
+    def read_file(
+        self,
+        path: str,
+        on_other: Callable[[Msg], None] | None = None,
+        *,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> bytes:
+        """A file of the vehicle over MAVLink FTP (OpenFileRO, ReadFile, TerminateSession). Raises
+        :class:`LinkError` for a missing file ("no such file on the vehicle: PATH") or no answer. Messages
+        that are not FTP replies go to ``on_other``; ``progress(done, size)`` after each chunk."""
+        opened = self._ftp(ftp.OPEN_RO, data=path.encode(), on_other=on_other)
+        if opened.opcode == ftp.NAK:
+            code = opened.data[0] if opened.data else 0
+            if code == ftp.FILE_NOT_FOUND:
+                raise LinkError(f"no such file on the vehicle: {path}")
+            raise LinkError(f"the vehicle cannot open {path} (FTP error {code})")
+        size = struct.unpack("<I", opened.data[:4])[0]
+        out = bytearray()
+        try:
+            while len(out) < size:
+                r = self._ftp(
+                    ftp.READ, session=opened.session, offset=len(out), size=ftp.DATA_MAX, on_other=on_other
+                )
+                if r.opcode == ftp.NAK or not r.data:
+                    break  # EOF (the file is shorter than it was at the open) or an error: what we have
+                out += r.data
+                if progress is not None:
+                    progress(len(out), size)
+        finally:
+            self._ftp(ftp.TERMINATE, session=opened.session, on_other=on_other, retries=2)
+        if len(out) < size:
+            raise LinkError(f"{path}: read {len(out)} of {size} bytes")
+        return bytes(out)
+
+    def list_dir(
+        self, path: str, on_other: Callable[[Msg], None] | None = None
+    ) -> list[tuple[str, str, int]]:
+        """(kind "F" / "D", name, size) of each entry of a vehicle directory over MAVLink FTP."""
+        entries: list[tuple[str, str, int]] = []
+        while True:
+            r = self._ftp(ftp.LIST, offset=len(entries), data=path.encode(), on_other=on_other)
+            if r.opcode == ftp.NAK:
+                code = r.data[0] if r.data else 0
+                if code == ftp.EOF:
+                    return entries
+                if code == ftp.FILE_NOT_FOUND:
+                    raise LinkError(f"no such directory on the vehicle: {path}")
+                raise LinkError(f"the vehicle cannot list {path} (FTP error {code})")
+            got = [e for e in r.data.split(b"\0") if e]
+            if not got:
+                return entries
+            for e in got:
+                text = e.decode("utf-8", "replace")
+                name, _, size = text[1:].partition("\t")
+                entries.append((text[0], name, int(size) if size.isdigit() else 0))
 
     def param_set(
         self, name: str, value: float, *, resend_s: float = 0.5, retries: int = 5

@@ -31,12 +31,14 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from onboard.adapters.mavlink.api import Request, VehicleSnapshot
 from onboard.adapters.mavlink.commands import CommandService, RequestQueue
 from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
+from onboard.adapters.mavlink.ftp import FileTree, FtpService
 from onboard.adapters.mavlink.mission_service import MissionService, Validator
 from onboard.adapters.mavlink.params import ParamService, SpecLike
 from onboard.adapters.mavlink.peers import Sender
@@ -67,6 +69,7 @@ class VehicleLink:
             persisted one and is persisted.
         clock: monotonic wall clock (s); tests may inject one.
         store: the state directory (default: ``config.resolved_state_dir()``).
+        log_dir: the flight logs served over MAVLink FTP (default: ``logs`` in the state directory).
     """
 
     def __init__(
@@ -79,6 +82,7 @@ class VehicleLink:
         initial_mission: Mission | None = None,
         clock: Callable[[], float] = time.monotonic,
         store: StateStore | None = None,
+        log_dir: Path | None = None,
     ) -> None:
         self.config = config
         self._clock = clock
@@ -107,6 +111,12 @@ class VehicleLink:
             fence_circles=lambda: self.missions.mission().obstacles,
         )
         self.commands = CommandService(config, self.transport, self.requests, self.missions, self.telemetry)
+        self.ftp = FtpService(
+            self.transport,
+            FileTree(self.telemetry.snapshot, log_dir if log_dir is not None else self.store.dir / "logs"),
+            config.system_id,
+            config.component_id,
+        )
         self.params = ParamService(config, self.transport, self.requests, self.store, params, param_values)
         self._lock = threading.Lock()
         self._notes: collections.deque[Note] = collections.deque(maxlen=256)
@@ -266,6 +276,8 @@ class VehicleLink:
             self.missions.handle(msg, sender, now)
         elif kind.startswith("PARAM_"):
             self.params.handle(msg, sender, now)
+        elif kind == "FILE_TRANSFER_PROTOCOL":
+            self.ftp.handle(msg, sender)
 
     # ---- SETUP_SIGNING ---------------------------------------------------------------------------
     def _setup_signing(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:

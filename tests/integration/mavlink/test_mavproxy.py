@@ -9,6 +9,7 @@ mission in metres (``set wp_use_mission_int 0``: MAVProxy reads a local MISSION_
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import subprocess
@@ -119,3 +120,29 @@ def test_mavproxy_shows_and_sets_the_modes_by_name_and_lists_the_mission_in_metr
     op.wait_for(r"GUIDED is not a mode of this vehicle \(modes: AUTO, POSHOLD, SURFACE, MANUAL\)", mark)
     # AND no mode was ever shown as a number
     assert not any(re.search(r"Mode\(\d+\)", line) for line in op.lines), op.lines
+
+
+def test_mavproxy_reads_the_planned_path_over_mavlink_ftp(
+    operator: tuple[Vehicle, Operator], tmp_path: Path
+) -> None:
+    _, op = operator
+    # GIVEN MAVProxy connected to the vehicle, which flies the first goal of its mission
+    op.wait_for(r"Mode MANUAL")
+    mark = op.type("arm throttle")
+    op.wait_for(r"COMPONENT_ARM_DISARM: ACCEPTED", mark)
+    mark = op.type("mode AUTO")
+    op.wait_for(r"Mode AUTO", mark)
+    # WHEN the operator lists the vehicle's files and fetches the path with MAVProxy's ftp module
+    mark = op.type("ftp list /")
+    op.wait_for(r"@PATH", mark)
+    target = tmp_path / "planned.json"
+    mark = op.type(f"ftp get @PATH/planned.json {target}")
+    op.wait_for(r"Wrote \d+ bytes|Got \d+ bytes", mark, timeout_s=15.0)
+    # THEN the file is the path the vehicle flies: to goal 0 at (300, 5), depth 2
+    t_end = time.monotonic() + 5.0
+    while not target.exists() and time.monotonic() < t_end:
+        time.sleep(0.1)
+    doc = json.loads(target.read_text())
+    assert doc["kind"] == "goal" and doc["goal_index"] == 0 and doc["frame"] == "local_ned"
+    x_m, y_m, depth_m = doc["points_m"][-1]
+    assert abs(x_m - 300.0) < 0.05 and abs(y_m - 5.0) < 0.05 and abs(depth_m - 2.0) < 1e-6
