@@ -1,8 +1,9 @@
 """``auv-gcs``: the operator's MAVLink tool for the ISiMI100.
 
-    auv-gcs [--connect URL] [--json] upload FILE | download [FILE] | clear | fence FILE | arm |
-            disarm [--force] | start [--from SEQ] | hold | resume | abort | wait-ready [--timeout S] |
-            params [get NAME | set NAME VALUE] | monitor | plot TLOG
+    auv-gcs [--connect URL] [--json] fly FILE [--ready-timeout S] | upload FILE |
+            download [FILE] [--format plan|wpl|yaml] | clear | fence FILE | arm | disarm [--force] |
+            start [--from SEQ] | hold | resume | abort | wait-ready [--timeout S] |
+            params [get NAME | set NAME VALUE] | monitor | map [--port P] [--tlog FILE] | plot FILE
 
 URL: udpin:HOST:PORT (default udpin:0.0.0.0:14550, where the vehicle sends), udpout:HOST:PORT, tcp:HOST:PORT.
 Every call is recorded in the day's .tlog, gcs-YYYY-MM-DD.tlog in --tlog-dir (default
@@ -118,6 +119,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("file", type=Path)
     p = sub.add_parser("download", help="download the mission and fence")
     p.add_argument("file", type=Path, nargs="?")
+    p.add_argument(
+        "--format",
+        choices=mission_files.FORMATS,
+        help="plan (QGroundControl), wpl (QGC WPL 110) or yaml (default: from FILE's suffix: .plan; "
+        ".waypoints, .txt; .yaml, .yml; otherwise and on stdout yaml)",
+    )
     sub.add_parser("clear", help="clear mission and fence")
     p = sub.add_parser("fence", help="upload the obstacles of a file as the fence")
     p.add_argument("file", type=Path)
@@ -150,6 +157,17 @@ def _parser() -> argparse.ArgumentParser:
         default=30.0,
         metavar="S",
         help="give up after S s (exit 3)",
+    )
+    p = sub.add_parser(
+        "fly",
+        help="fly a mission file: upload it (fence and goals), wait until ready, arm, start, and show the "
+        "progress to the end (0 COMPLETE; 1 with the vehicle's reason when it stops short; Ctrl-C: HOLD)",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", type=Path, help="our YAML, a QGroundControl .plan or a QGC WPL 110 file")
+    p.add_argument(
+        "--ready-timeout", type=float, default=30.0, metavar="S", help="wait S s for the vehicle to be ready"
     )
     p = sub.add_parser("params", help="list, get or set parameters")
     p.add_argument("action", nargs="?", choices=["get", "set"])
@@ -300,7 +318,7 @@ def main(argv: list[str] | None = None) -> int:
         key = _load_key(args.signing_key)
         goals: list[Item] = []
         fences: list[Item] = []
-        if args.cmd in ("upload", "fence"):
+        if args.cmd in ("upload", "fence", "fly"):
             goals, fences = mission_files.load(args.file)
     except (ValueError, OSError) as exc:
         out.done({"ok": False, "error": str(exc)}, f"[red]error:[/] {exc}")
@@ -357,10 +375,8 @@ def _run(
     if args.cmd == "download":
         g = client.download(mavlink.MAV_MISSION_TYPE_MISSION)
         f = client.download(mavlink.MAV_MISSION_TYPE_FENCE)
-        text = (
-            mission_files.to_wpl(g, f) if args.file and args.file.suffix in (".txt", ".waypoints") else None
-        )
-        text = text or mission_files.to_yaml(g, f)
+        fmt = args.format or mission_files.format_for(args.file)
+        text = mission_files.dump(fmt, g, f)  # home: the vehicle's placeholder if it holds one (to_plan)
         if args.file:
             args.file.write_text(text, encoding="utf-8")
         data = {
@@ -368,12 +384,18 @@ def _run(
             "goals": len(g),
             "obstacles": len(f),
             "file": str(args.file) if args.file else None,
+            "format": fmt,
         }
         if args.json and not args.file:
             import yaml
 
             data["mission"] = yaml.safe_load(mission_files.to_yaml(g, f))
-        out.done(data, f"wrote {args.file}" if args.file else text)
+            if fmt != "yaml":
+                data["text"] = text
+        if args.file or args.json:
+            out.done(data, f"wrote {args.file} ({fmt})")
+        else:
+            sys.stdout.write(text)  # the file's text as it is: no rich markup or wrapping, for a redirect
         return 0
     if args.cmd == "clear":
         r = client.clear(mavlink.MAV_MISSION_TYPE_ALL)
@@ -394,12 +416,73 @@ def _run(
         return exit_code_of_command(ack.result)
     if args.cmd == "params":
         return _params(args, client, out)
+    if args.cmd == "fly":
+        return _fly(args, client, out, goals, fences, tlog)
     if args.cmd == "monitor":
         from groundstation.monitor import monitor
 
         monitor(client, out.console, args.duration, as_json=args.json)
         return 0
     return 2
+
+
+def _fly(
+    args: argparse.Namespace, client: MavClient, out: _Out, goals: list[Item], fences: list[Item], tlog: Path
+) -> int:
+    """``fly``: the file as the whole plan (an empty fence clears the old one), then ready, arm, start and
+    the watch (:mod:`groundstation.fly`)."""
+    from groundstation import fly
+
+    def stop(code: int, data: dict[str, Any], text: str) -> int:
+        out.done({"event": "end", "tlog": str(tlog), **data}, text)
+        return code
+
+    results, note = _upload_plans(client, out, goals, fences, True, True)
+    refused = next((r for r in results if not r["ok"]), None)
+    if refused is not None:
+        why = f"upload {refused['type']}: {refused['result']}" + (
+            f": {refused['reason']}" if refused["reason"] else ""
+        )
+        code = EXIT_ERROR if refused["timeout"] else EXIT_REFUSED
+        return stop(
+            code, {"ok": False, "step": "upload", "reason": why, "restored": note}, f"[red]{_esc(why)}[/]"
+        )
+    if not out.as_json:
+        out.console.print("\n".join(_upload_text(r) for r in results))
+    ready, _hb, why = client.wait_ready(args.ready_timeout)
+    if not ready:
+        text = f"not ready after {args.ready_timeout:g} s" + (f": {why}" if why else "")
+        return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, f"[red]{_esc(text)}[/]")
+    for step, (cmd, params) in (
+        ("arm", (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))),
+        ("start", (mavlink.MAV_CMD_MISSION_START, (0.0, 0.0))),
+    ):
+        ack = client.command_ack(cmd, *params)
+        if not ack.ok:
+            text = f"{step}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else "")
+            data = {"ok": False, "step": step, "result": ack.result_name, "reason": ack.reason}
+            return stop(exit_code_of_command(ack.result), data, f"[red]{_esc(text)}[/]")
+        if not out.as_json:
+            out.console.print(f"{step}: {ack.result_name}")
+    offset = 1 if mission_files.is_home_placeholder(goals) else 0
+    n_goals = len(goals) - offset
+    try:
+        code, data = fly.watch(client, n_goals, out.console, home_offset=offset, as_json=out.as_json)
+    except KeyboardInterrupt:
+        try:
+            ok, answer = fly.hold(client)
+        except LinkError as exc:
+            ok, answer = False, str(exc)
+        text = f"interrupted: HOLD sent, the vehicle answered {answer}"
+        return stop(
+            EXIT_INTERRUPTED, {"ok": False, "step": "interrupted", "hold": ok, "reason": answer}, text
+        )
+    if code == EXIT_OK:
+        return stop(
+            code, {**data, "step": "done"}, f"[green]COMPLETE[/]: {n_goals} of {n_goals} goals reached"
+        )
+    text = f"{data['state']}: {data['reason'] or 'the vehicle stopped the mission'}"
+    return stop(code, {**data, "step": "watch"}, f"[red]{_esc(text)}[/]")
 
 
 def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> int:

@@ -375,6 +375,10 @@ class MavClient:
     def _from_target(self, m: Msg) -> bool:
         return (m.get_srcSystem(), m.get_srcComponent()) == self.target
 
+    def from_vehicle(self, m: Msg) -> bool:
+        """True for a message of the vehicle this client talks to (its system id, as last heard)."""
+        return self._from_target(m)
+
     def _to_us(self, m: Msg) -> bool:
         ts = getattr(m, "target_system", 0)
         return ts in (0, self.system_id)
