@@ -38,12 +38,15 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from auv_common.cli import join_negative_values
 from auv_common.process import stop_process
+from hil_sim import figures
+from hil_sim.figures import PaperValue
 from hil_sim.metrics import compute_metrics, read_truth
 
 DEPTH_M = 1.0
@@ -351,58 +354,51 @@ def run_scenario(sc: Scenario, opts: RunOptions) -> dict[str, Any]:
 
 
 # --- figures ---------------------------------------------------------------------------------------
-def plot_scenario(result: dict[str, Any], out_dir: str | Path) -> list[str]:
-    """The paper's figures: path vs reference (Fig. 7 / 9) and x / y error against time (Fig. 8 / 10)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot_scenario(result: dict[str, Any], out_dir: str | Path, paper: Sequence[PaperValue] = ()) -> list[str]:
+    """The paper's figures of a :func:`run_scenario` result (:mod:`hil_sim.figures`): the path against the
+    planned path (Fig. 7 / 9) and e_x, e_y in the path frame against time (Fig. 8 / 10), the paper's
+    reported values (``paper``) marked. Writes ``NAME-CONTROLLER-GUIDANCE-path.png`` and ``...-error.png``
+    in ``out_dir``; returns their file names."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     truth = read_truth(result["truth_log"])
-    ref = [(p[0], p[1]) for p in result["planned_path"]]
+    samples = result["planned_path"]
+    t_goal = float(result["arrival_time_s"]) if result.get("completed") else None
+    errors = figures.path_frame_errors(
+        [r["t_s"] for r in truth],
+        [r["x_m"] for r in truth],
+        [r["y_m"] for r in truth],
+        samples,
+        *_logged_reference(Path(result["telemetry_log"])),
+        t_goal_s=t_goal,
+    )
     name = result["scenario"]
     tag = f"{name}-{result['controller']}-{result['guidance']}"
-    files = []
-    fig, ax = plt.subplots(figsize=(7, 6))
-    # NED: x north (up the page), y east (to the right).
-    ax.plot([p[1] for p in ref], [p[0] for p in ref], "r-", lw=2, label="reference path")
-    ax.plot([r["y_m"] for r in truth], [r["x_m"] for r in truth], "b:", lw=2, label="vehicle (truth)")
-    ax.set_xlabel("y east (m)")
-    ax.set_ylabel("x north (m)")
-    ax.set_aspect("equal")
-    ax.grid(True)
-    ax.legend()
-    ax.set_title(f"{name}: path tracking ({result['controller']}, {result['guidance']})")
-    files.append(str(out / f"{tag}-path.png"))
-    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    how = f"{result['controller']} controller, {result['guidance']} guidance"
+    path_fig = figures.path_figure(samples, errors, f"{name}: path against the planned path ({how})")
+    error_fig = figures.error_figure(
+        samples, errors, paper, f"{name}: errors in the path frame against time ({how}); e = desired - actual"
+    )
+    return [
+        figures.save_png(path_fig, out / f"{tag}-path.png"),
+        figures.save_png(error_fig, out / f"{tag}-error.png"),
+    ]
 
-    tel_path = Path(result["telemetry_log"])
-    if tel_path.exists():
-        with tel_path.open(newline="") as f:
-            tel = {round(float(r["t_s"]), 3): r for r in csv.DictReader(f)}
-        t, ex, ey = [], [], []
-        for r in truth:
-            row = tel.get(round(r["t_s"], 3))
-            if row is None or row["ref_x_m"] in ("", "nan"):
+
+def _logged_reference(telemetry: Path) -> tuple[list[float], list[float], list[float]]:
+    """(t_s, ref_x_m, ref_y_m) of the onboard's telemetry CSV (empty when there is none; rows without a
+    reference are left to :func:`hil_sim.figures.path_frame_errors` to drop)."""
+    if not telemetry.exists():
+        return [], [], []
+    t, x, y = [], [], []
+    with telemetry.open(newline="") as f:
+        for row in csv.DictReader(f):
+            try:
+                t.append(float(row["t_s"]))
+                x.append(float(row["ref_x_m"]))
+                y.append(float(row["ref_y_m"]))
+            except (KeyError, TypeError, ValueError):
                 continue
-            t.append(r["t_s"])
-            ex.append(float(row["ref_x_m"]) - r["x_m"])
-            ey.append(float(row["ref_y_m"]) - r["y_m"])
-        fig, ax = plt.subplots(figsize=(8, 4))
-        ax.plot(t, ex, "b-", label="x error (reference - vehicle)")
-        ax.plot(t, ey, "r--", label="y error (reference - vehicle)")
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel("error (m)")
-        ax.grid(True)
-        ax.legend()
-        ax.set_title(f"{name}: tracking error against time")
-        files.append(str(out / f"{tag}-error.png"))
-        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-        plt.close(fig)
-    return files
+    return t, x, y
 
 
 def print_result(result: dict[str, Any]) -> None:
