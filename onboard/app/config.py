@@ -2,8 +2,9 @@
 
 Tables: [bus] (:class:`onboard.protocol.bus.BusConfig`), [loop] (:class:`onboard.app.loop.LoopConfig`),
 [planner], [nav], [guidance], [control] (with [control.paper], [control.improved], [control.limits]),
-[failsafe], [mavlink]. Every table is optional and every key has a default; unknown tables or
-keys and out-of-range values stop start-up with one clear line (:class:`ConfigError`).
+[failsafe], [mission], [mavlink], [log] (:class:`onboard.app.flight_log.LogConfig`). Every table is
+optional and every key has a default; unknown tables or keys and out-of-range values stop start-up with one
+clear line (:class:`ConfigError`).
 The default file is ``onboard/config/onboard.toml`` (the one the bench and the scenarios fly with).
 """
 
@@ -15,6 +16,7 @@ from typing import Any
 
 from auv_common.config import ConfigError, from_table, load_toml
 from onboard.adapters.mavlink.config import MavlinkConfig
+from onboard.app.flight_log import LogConfig
 from onboard.app.loop import LoopConfig
 from onboard.core.config import CoreConfig
 from onboard.protocol.bus import BusConfig
@@ -24,11 +26,13 @@ DEFAULT_CONFIG_PATH = Path(__file__).parents[1] / "config" / "onboard.toml"
 
 @dataclass(frozen=True)
 class OnboardConfig(CoreConfig):
-    """The core's tables (:class:`~onboard.core.config.CoreConfig`) and the program's: bus, loop, MAVLink."""
+    """The core's tables (:class:`~onboard.core.config.CoreConfig`) and the program's: bus, loop, MAVLink,
+    the flight log."""
 
     bus: BusConfig = field(default_factory=BusConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
     mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
+    log: LogConfig = field(default_factory=LogConfig)
 
     @property
     def core(self) -> CoreConfig:

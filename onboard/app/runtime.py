@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import datetime as dt
 import json
 import logging
 import signal
@@ -25,6 +26,7 @@ import can
 from auv_common.config import ConfigError, load_toml
 from onboard.adapters.mavlink.persistence import StateDirError, StateStore
 from onboard.app.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
+from onboard.app.flight_log import FlightLog, LoggedLink, open_flight_log, run_metadata
 from onboard.app.loop import ControlLoop
 from onboard.app.mission_file import load_mission
 from onboard.core.autopilot import Autopilot
@@ -288,7 +290,15 @@ def main(argv: list[str] | None = None) -> int:
     for line in boot.log_lines:
         log.info("%s", line)
     try:
-        return run(boot, mission, args.autostart, stop, store=store, summary_json=args.summary_json)
+        return run(
+            boot,
+            mission,
+            args.autostart,
+            stop,
+            store=store,
+            summary_json=args.summary_json,
+            config_name=str(args.config or DEFAULT_CONFIG_PATH),
+        )
     except (ConfigError, BusUnavailable) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ConfigError) else 1
@@ -301,8 +311,12 @@ def run(
     stop: threading.Event,
     store: StateStore | None = None,
     summary_json: str | None = None,
+    config_name: str = "",
 ) -> int:
     """Open the bus, build the loop and run it until ``stop`` is set (``store`` None: no MAVLink link).
+
+    The flight log (``[log]``, :mod:`onboard.app.flight_log`) starts once the bus is open and is closed, with
+    its footer, however the loop ends (``config_name`` names the configuration in its metadata).
 
     The mission: ``mission`` (``--mission``, already checked) wins over the persisted one, which the link
     loads and checks with the same validator; the persisted progress (current goal) of that same mission is
@@ -349,8 +363,12 @@ def run(
             1.0 / codec.control_cycle_s,
         )
     loop = ControlLoop(port, autopilot, cfg.loop)
-    if link is not None:
-        _bridge(loop, autopilot, link)
+    start = dt.datetime.now(dt.UTC)
+    flight = open_flight_log(
+        cfg.log, cfg.mavlink.resolved_state_dir(), run_metadata(cfg, config_name, start), start
+    )
+    if link is not None or flight is not None:
+        _bridge(loop, autopilot, link, flight)
     log.info(
         "onboard loop: %s at %.0f Hz on %s %s",
         "lock-step" if lockstep else "real time",
@@ -378,6 +396,8 @@ def run(
         port.close()
         if link is not None:
             link.stop()
+        if flight is not None:
+            flight.close()
         log.info(
             "onboard stopped: %d ticks, %d overruns, %d frames rejected %s",
             loop.stats.ticks,
@@ -443,16 +463,23 @@ def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, missi
         param_values={name: param_value(boot.config.core, name) for name in PARAM_NAMES},
         initial_mission=mission,
         store=store,
+        log_dir=boot.config.log.directory(store.dir),  # the flight logs it serves over MAVLink FTP
     )
     link.start()
     return link
 
 
-def _bridge(loop: ControlLoop, autopilot: Autopilot, link: Any) -> None:
-    """The per-tick exchange with the link: requests judged before the step, notes and snapshot after."""
+def _bridge(loop: ControlLoop, autopilot: Autopilot, link: Any, flight: FlightLog | None = None) -> None:
+    """The per-tick exchange with the link: requests judged before the step, notes and snapshot after.
+
+    The flight log's one hook: with ``flight``, the bridge's link is :class:`LoggedLink`, which hands the
+    notes and the snapshot of every tick to the log as well (``link`` None: to the log only).
+    """
     from onboard.adapters.mavlink import bridge
 
     stats = loop.stats
+    if flight is not None:
+        link = LoggedLink(flight, link, lambda: autopilot.mission.obstacles)
 
     def before(_now_s: float) -> None:
         bridge.before_tick(autopilot, link)
