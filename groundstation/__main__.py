@@ -169,6 +169,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--ready-timeout", type=float, default=30.0, metavar="S", help="wait S s for the vehicle to be ready"
     )
+    p = sub.add_parser(
+        "logs", help="list the vehicle's flight logs (MCAP), or download one (MAVLink FTP): logs [get NAME]"
+    )
+    p.add_argument("action", nargs="?", choices=["get"])
+    p.add_argument("name", nargs="?", help="a log's name as listed (default for get: the newest)")
+    p.add_argument("-o", "--output", type=Path, help="file or folder to write it to (default: the name)")
     p = sub.add_parser("params", help="list, get or set parameters")
     p.add_argument("action", nargs="?", choices=["get", "set"])
     p.add_argument("name", nargs="?")
@@ -418,6 +424,8 @@ def _run(
         return _params(args, client, out)
     if args.cmd == "fly":
         return _fly(args, client, out, goals, fences, tlog)
+    if args.cmd == "logs":
+        return _logs(args, client, out)
     if args.cmd == "monitor":
         from groundstation.monitor import monitor
 
@@ -483,6 +491,38 @@ def _fly(
         )
     text = f"{data['state']}: {data['reason'] or 'the vehicle stopped the mission'}"
     return stop(code, {**data, "step": "watch"}, f"[red]{_esc(text)}[/]")
+
+
+def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
+    """``logs``: the flight logs in the vehicle's ``logs/`` over MAVLink FTP; ``get`` writes one whole."""
+    entries = [(name, size) for kind, name, size in client.list_dir("logs") if kind == "F"]
+    if args.action is None:
+        text = "\n".join(f"{name}  {size / 1e6:.2f} MB" for name, size in entries) or "no flight logs"
+        out.done({"ok": True, "logs": [{"name": n, "size": s} for n, s in entries]}, text)
+        return EXIT_OK
+    if not entries:
+        out.done({"ok": False, "error": "no flight logs on the vehicle"}, "[red]error:[/] no flight logs")
+        return EXIT_REFUSED
+    name = args.name or entries[-1][0]
+    target = args.output or Path(name)
+    if target.is_dir():
+        target = target / name
+    if out.as_json:
+        data = client.read_file(f"logs/{name}")
+    else:
+        from rich.progress import Progress
+
+        with Progress(console=out.console, transient=True) as prog:
+            task = prog.add_task(f"{name}", total=None)
+            data = client.read_file(
+                f"logs/{name}", progress=lambda done, n: prog.update(task, completed=done, total=n)
+            )
+    target.write_bytes(data)
+    out.done(
+        {"ok": True, "name": name, "file": str(target), "bytes": len(data)},
+        f"wrote {target} ({len(data)} bytes)",
+    )
+    return EXIT_OK
 
 
 def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> int:

@@ -10,6 +10,8 @@ import itertools
 import json
 import os
 import struct
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -115,3 +117,34 @@ def test_ftp_is_read_only_bounded_and_idempotent(vehicle: Vehicle) -> None:
             assert r.opcode == ftp.NAK and r.data[0] == ftp.INVALID_SESSION
         (r,) = raw(c, ftp.Packet(80, 0, ftp.RESET, 0, 0, 0, 0, b""))
         assert r.opcode == ftp.ACK and vehicle.link.ftp.sessions == {}
+
+
+def test_auv_gcs_logs_lists_and_downloads_the_newest(tmp_path: Path) -> None:
+    logs = tmp_path / "state" / "logs"
+    logs.mkdir(parents=True)
+    old, new = os.urandom(5_000), os.urandom(30_000)
+    (logs / "flight-20261201-090000.mcap").write_bytes(old)
+    (logs / "flight-20261202-010000.mcap").write_bytes(new)
+    v = Vehicle(tmp_path / "state").start()
+    gcs = [sys.executable, "-m", "groundstation", "--connect", f"udpout:127.0.0.1:{v.port}", "--json",
+           "--tlog-dir", str(tmp_path / "tlogs")]  # fmt: skip
+    try:
+        listed = subprocess.run([*gcs, "logs"], capture_output=True, text=True, timeout=30, check=False)
+        assert listed.returncode == 0, listed.stderr
+        assert json.loads(listed.stdout.splitlines()[-1])["logs"] == [
+            {"name": "flight-20261201-090000.mcap", "size": 5_000},
+            {"name": "flight-20261202-010000.mcap", "size": 30_000},
+        ]
+        got = subprocess.run(
+            [*gcs, "logs", "get", "-o", str(tmp_path)],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=False,
+        )
+        assert got.returncode == 0, got.stderr
+        assert (tmp_path / "flight-20261202-010000.mcap").read_bytes() == new
+        bad = subprocess.run([*gcs, "logs", "get", "nope.mcap"], capture_output=True, text=True, timeout=30)
+        assert bad.returncode == 2 and "no such file on the vehicle: logs/nope.mcap" in bad.stdout
+    finally:
+        v.stop()
