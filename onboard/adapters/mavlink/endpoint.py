@@ -109,6 +109,7 @@ class VehicleLink:
             lambda: rx.malformed + rx.bad_signature + rx.unsigned_rejected,
             progress=self.missions.progress(),
             fence_circles=lambda: self.missions.mission().obstacles,
+            origin=lambda: self.missions.limits,
         )
         self.commands = CommandService(config, self.transport, self.requests, self.missions, self.telemetry)
         self.ftp = FtpService(
@@ -270,6 +271,9 @@ class VehicleLink:
         if kind == "SETUP_SIGNING":
             self._setup_signing(msg, sender)
             return
+        if kind == "SET_GPS_GLOBAL_ORIGIN":
+            self._set_origin(msg, sender)
+            return
         if kind == "MISSION_SET_CURRENT" or kind.startswith("COMMAND_"):
             self.commands.handle(msg, sender, now)
         elif kind.startswith("MISSION_"):
@@ -278,6 +282,23 @@ class VehicleLink:
             self.params.handle(msg, sender, now)
         elif kind == "FILE_TRANSFER_PROTOCOL":
             self.ftp.handle(msg, sender)
+
+    # ---- SET_GPS_GLOBAL_ORIGIN -------------------------------------------------------------------
+    def _set_origin(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:
+        """Move the local frame's geodetic origin (the mission service owns it); no ACK in MAVLink: the
+        answer is GPS_GLOBAL_ORIGIN (and HOME_POSITION) to every station, or the refusal's STATUSTEXT."""
+        if int(msg.target_system) not in (0, self.config.system_id):
+            return
+        lat, lon, alt = msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0
+        why = self.missions.set_origin(lat, lon, alt)
+        if why:
+            log.warning("SET_GPS_GLOBAL_ORIGIN from %s refused: %s", sender, why)
+            self.transport.statustext(Severity.WARNING, why, to=sender)
+            return
+        log.info("origin set to %.7f, %.7f, %.1f m by %s/%s", lat, lon, alt, sender[0], sender[1])
+        self.transport.statustext(Severity.NOTICE, f"origin set to {lat:.7f}, {lon:.7f}, {alt:.1f} m")
+        self.telemetry.send_message(mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
+        self.telemetry.send_message(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
 
     # ---- SETUP_SIGNING ---------------------------------------------------------------------------
     def _setup_signing(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:

@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import concurrent.futures
 import logging
+import math
 import threading
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -127,10 +128,15 @@ class MissionService:
         self.requests = requests
         self.store = store
         self.validator = validator
-        self.limits = MissionLimits(
-            origin_lat_deg=config.origin_lat_deg,
-            origin_lon_deg=config.origin_lon_deg,
-            origin_alt_m=config.origin_alt_m,
+        lat, lon, alt = store.load_origin() or (
+            config.origin_lat_deg,
+            config.origin_lon_deg,
+            config.origin_alt_m,
+        )
+        self.limits = MissionLimits(  # the one owner of the geodetic origin (set_origin); telemetry asks it
+            origin_lat_deg=lat,
+            origin_lon_deg=lon,
+            origin_alt_m=alt,
             item_timeout_s=config.item_timeout_s,
             upload_timeout_s=config.upload_timeout_s,
         )
@@ -191,6 +197,21 @@ class MissionService:
         self._executor.shutdown(wait=False, cancel_futures=True)
 
     # ---- I/O thread ------------------------------------------------------------------------------
+    def set_origin(self, lat_deg: float, lon_deg: float, alt_m: float) -> str:
+        """SET_GPS_GLOBAL_ORIGIN: move the geodetic origin of the local frame (persisted); "" when done,
+        else why not. Refused while a mission or a fence is stored (its global items would move: the
+        goals are the items converted about the origin) or a transfer is going on."""
+        if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0 and math.isfinite(alt_m)):
+            return f"origin out of range: lat {lat_deg:g}, lon {lon_deg:g}, alt {alt_m:g} m"
+        if self.server.judging or self.server.transfer_sender is not None:
+            return "origin not changed: a mission transfer is going on"
+        if self.server.items(TYPE_MISSION) or self.server.items(TYPE_FENCE):
+            return "origin not changed: a mission or fence is stored (clear it first; its items would move)"
+        self.limits = replace(self.limits, origin_lat_deg=lat_deg, origin_lon_deg=lon_deg, origin_alt_m=alt_m)
+        self.server.limits = self.limits
+        self.store.save_origin(lat_deg, lon_deg, alt_m)
+        return ""
+
     def handle(self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float) -> None:
         for m in self.server.handle(msg, sender, now_s):
             self.transport.reply(m, sender)  # every answer is to the sender (a request, an ACK, DENIED)

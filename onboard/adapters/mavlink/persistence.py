@@ -56,6 +56,7 @@ PARAMS_FILE = "params.json"
 PROGRESS_FILE = "progress.json"
 SIGNING_FILE = "signing.json"
 SIGNING_KEY_FILE = "signing_key.json"
+ORIGIN_FILE = "origin.json"
 FORMAT_VERSION = 1
 #: MAVLink PARAM_* ids are at most 16 characters.
 MAX_PARAM_NAME = 16
@@ -327,6 +328,27 @@ class StateStore:
         except Exception as exc:  # anything in untrusted content (e.g. a 400-digit number) means invalid
             self.quarantine(PARAMS_FILE, _why(exc))
             return {}
+
+    # ---- geodetic origin (SET_GPS_GLOBAL_ORIGIN) ---------------------------------------------------
+    def save_origin(self, lat_deg: float, lon_deg: float, alt_m: float) -> None:
+        write_json_atomic(
+            self.dir / ORIGIN_FILE,
+            {"version": FORMAT_VERSION, "lat_deg": lat_deg, "lon_deg": lon_deg, "alt_m": alt_m},
+        )
+
+    def load_origin(self) -> tuple[float, float, float] | None:
+        """The origin a ground station set (lat, lon, alt AMSL), or None (never set, or set aside)."""
+        data = self._load(ORIGIN_FILE)
+        if data is None:
+            return None
+        try:
+            lat, lon, alt = (float(data[k]) for k in ("lat_deg", "lon_deg", "alt_m"))
+            if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0 and math.isfinite(alt)):
+                raise ValueError(f"origin out of range: {lat}, {lon}, {alt}")
+            return lat, lon, alt
+        except Exception as exc:  # anything in untrusted content means invalid
+            self.quarantine(ORIGIN_FILE, _why(exc))
+            return None
 
     # ---- mission progress ------------------------------------------------------------------------
     def save_progress(self, goal_index: int, mission_key: str) -> None:

@@ -109,6 +109,7 @@ class Telemetry:
         error_count: Callable[[], int] = lambda: 0,
         progress: int | None = None,
         fence_circles: Callable[[], tuple[Obstacle, ...]] = tuple,
+        origin: Callable[[], MissionLimits] | None = None,
     ) -> None:
         self.config = config
         self._fence_circles = fence_circles
@@ -116,7 +117,9 @@ class Telemetry:
         self._clock = clock
         self._shape = shape
         self._error_count = error_count
-        self._origin = MissionLimits(config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m)
+        self._origin = origin or (
+            lambda: MissionLimits(config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m)
+        )
         self._lock = threading.Lock()
         # Until the loop's first snapshot: the persisted progress, so MISSION_CURRENT never says goal 0
         # of a mission that has progressed (the core restores the same value at boot).
@@ -225,7 +228,7 @@ class Telemetry:
         s = self.snapshot()
         boot_ms = _i(s.t_s * 1000.0, 0, 2**32 - 1)
         usec = _i(s.t_s * 1e6, 0, 2**63 - 1)
-        c = self.config
+        o = self._origin()
         m: mavlink.MAVLink_message
         if msg_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
             base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED
@@ -244,13 +247,13 @@ class Telemetry:
             m = mavlink.MAVLink_local_position_ned_message(boot_ms, s.x_m, s.y_m, s.depth_m, vn, ve, vd)
         elif msg_id == mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT:
             vn, ve, vd = body_to_ned(s.roll_rad, s.pitch_rad, s.yaw_rad, s.u_mps, s.v_mps, s.w_mps)
-            lat, lon = local_to_global(s.x_m, s.y_m, self._origin)
+            lat, lon = local_to_global(s.x_m, s.y_m, o)
             hdg = math.degrees(s.yaw_rad) % 360.0 if math.isfinite(s.yaw_rad) else math.nan
             m = mavlink.MAVLink_global_position_int_message(
                 boot_ms,
                 _i(lat * 1e7, -900_000_000, 900_000_000),
                 _i(lon * 1e7, -1_800_000_000, 1_800_000_000),
-                _i((c.origin_alt_m - s.depth_m) * 1000.0, -(2**31), 2**31 - 1),
+                _i((o.origin_alt_m - s.depth_m) * 1000.0, -(2**31), 2**31 - 1),
                 _i(-s.depth_m * 1000.0, -(2**31), 2**31 - 1),
                 _i(vn * 100.0, -32768, 32767),
                 _i(ve * 100.0, -32768, 32767),
@@ -294,9 +297,9 @@ class Telemetry:
             return
         elif msg_id == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
             m = mavlink.MAVLink_home_position_message(
-                round(c.origin_lat_deg * 1e7),
-                round(c.origin_lon_deg * 1e7),
-                round(c.origin_alt_m * 1000),
+                round(o.origin_lat_deg * 1e7),
+                round(o.origin_lon_deg * 1e7),
+                round(o.origin_alt_m * 1000),
                 0.0,
                 0.0,
                 0.0,
@@ -308,9 +311,9 @@ class Telemetry:
             )
         elif msg_id == mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
             m = mavlink.MAVLink_gps_global_origin_message(
-                round(c.origin_lat_deg * 1e7),
-                round(c.origin_lon_deg * 1e7),
-                round(c.origin_alt_m * 1000),
+                round(o.origin_lat_deg * 1e7),
+                round(o.origin_lon_deg * 1e7),
+                round(o.origin_alt_m * 1000),
                 usec,
             )
         elif msg_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
