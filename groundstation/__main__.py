@@ -30,6 +30,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from groundstation import map as gcs_map
 from groundstation import mission_files
 from groundstation.mavclient import (
     MAV_STATE_NAMES,
@@ -184,6 +185,7 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plot", help="plot track and errors from a tlog")
     p.add_argument("tlog", type=Path)
     p.add_argument("-o", "--output", type=Path, help="image file (default: TLOG with .png)")
+    gcs_map.add_parser(sub)
     return ap
 
 
@@ -334,6 +336,9 @@ def main(argv: list[str] | None = None) -> int:
     tlog = _session_tlog(tlog_dir)
     try:
         system_id = args.system_id if args.system_id is not None else own_system_id()
+        if args.cmd == "map":  # serves until stopped; it opens the link itself (a --tlog replay opens none)
+            link = lambda: MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id)  # noqa: E731
+            return gcs_map.run(args, link, out.done)
         with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id) as client:
             client.heartbeat()
             t0 = time.monotonic()
