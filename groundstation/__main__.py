@@ -287,6 +287,10 @@ def _session_tlog(tlog_dir: Path) -> Path:
     return tlog_dir / f"gcs-{time.strftime('%Y-%m-%d')}.tlog"
 
 
+#: The sub-commands that are an operator's session: they send GCS heartbeats, which the vehicle watches (a
+#: one-shot command sends none, so its exit is no "link lost" on the vehicle).
+SESSIONS = frozenset({"monitor", "fly", "map"})
+
 #: The system ids a ground station draws its own from (255, the stock default, and below 200 are left to
 #: vehicles and other tools).
 OWN_SYSTEM_IDS = range(200, 255)
@@ -339,7 +343,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.cmd == "map":  # serves until stopped; it opens the link itself (a --tlog replay opens none)
             link = lambda: MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id)  # noqa: E731
             return gcs_map.run(args, link, out.done)
-        with MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id) as client:
+        session = args.cmd in SESSIONS  # GCS heartbeats (watched by the vehicle) only from a session
+        with MavClient(
+            args.connect, tlog=tlog, signing_key=key, system_id=system_id, gcs_session=session
+        ) as client:
             client.heartbeat()
             t0 = time.monotonic()
             first_s = args.ready_timeout if args.cmd == "wait-ready" else args.timeout

@@ -172,7 +172,14 @@ def state_from_heartbeat(msg: Msg) -> str:
 
 
 class MavClient:
-    """A ground-station MAVLink 2 connection (system 255, component 190 by default)."""
+    """A ground-station MAVLink 2 connection (system 255, component 190 by default).
+
+    ``gcs_session``: this client is an operator's session (``monitor``, ``fly``, ``map``) and sends a
+    MAV_TYPE_GCS HEARTBEAT every ``heartbeat_period_s``, which the vehicle's link watch counts (and reports
+    lost when they stop). False: a one-shot tool (``arm``, ``upload``, ...) that sends no GCS heartbeat,
+    so its exit is no "ground-station link lost" on the vehicle; the vehicle learns its address from its
+    first message.
+    """
 
     def __init__(
         self,
@@ -183,6 +190,7 @@ class MavClient:
         tlog: Path | None = None,
         signing_key: bytes | None = None,
         heartbeat_period_s: float = 1.0,
+        gcs_session: bool = True,
     ) -> None:
         parts = url.split(":")
         if len(parts) != 3 or parts[0] not in ("udpin", "udpout", "tcp"):
@@ -224,6 +232,7 @@ class MavClient:
         # unbuffered: each record is one append (O_APPEND), whole, also when another process appends too
         self._tlog = tlog.open("ab", buffering=0) if tlog is not None else None
         self._hb_period_s = heartbeat_period_s
+        self.gcs_session = gcs_session
         self._hb_next = 0.0
         self._confirmation = 0
         self._ftp_seq = 0
@@ -274,6 +283,9 @@ class MavClient:
         self.mav.send(msg)
 
     def heartbeat(self) -> None:
+        """Our GCS HEARTBEAT (a session's; a one-shot client sends none, see the class docstring)."""
+        if not self.gcs_session:
+            return
         self.send(
             mavlink.MAVLink_heartbeat_message(
                 mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3

@@ -479,3 +479,29 @@ def test_cli_edges_are_one_line_with_a_reason(vehicle: Vehicle, tmp_path: Path, 
         assert code == 2 and "cannot open" in out["error"] and "in use" in out["error"], out
     finally:
         taken.close()
+
+
+def test_one_shot_commands_are_no_session_the_vehicle_watches(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    """``arm``, ``params``... send no GCS heartbeat, so their exit is no "link lost" on the vehicle; a
+    session (``monitor``) does, and its end is one."""
+    v = Vehicle(tmp_path / "state", gcs_timeout_s=1.0).start()
+    try:
+        with caplog.at_level("WARNING", logger="onboard.adapters.mavlink.endpoint"):
+            # WHEN the operator runs one-shot commands
+            for args in (("params", "get", "MIS_ARRIVE_R_M"), ("wait-ready", "--timeout", "2"), ("disarm",)):
+                code, _ = run(capsys, v, tmp_path, *args)
+                assert code in (0, 1, 3), args
+            time.sleep(2.0)
+            # THEN the vehicle never counted them as a ground-station link, so none was lost
+            assert not [r for r in caplog.records if "link lost" in r.getMessage()]
+            # WHEN a session watches for 1 s and ends
+            code, _ = run(capsys, v, tmp_path, "monitor", "--duration", "1")
+            assert code == 0
+            time.sleep(2.0)
+        # THEN its end is reported, once
+        lost = [r for r in caplog.records if "ground-station link lost" in r.getMessage()]
+        assert len(lost) == 1
+    finally:
+        v.stop()
