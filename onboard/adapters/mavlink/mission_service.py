@@ -306,12 +306,11 @@ class MissionService:
         self._key = mission_key(self.server.items(TYPE_MISSION))
         for m in acks:
             self._to_peer(m, peer)
-        log.info(
-            "%s accepted: %d goals, %d obstacles",
-            _TYPE_NAMES.get(c.mission_type, "plan"),
-            len(j.mission.goals),
-            len(j.mission.obstacles),
-        )
+        what = _TYPE_NAMES.get(c.mission_type, "plan")
+        n_goals, n_obstacles = len(j.mission.goals), len(j.mission.obstacles)
+        text = f"{what} accepted: {n_goals} goals, {n_obstacles} obstacles ({c.sender[0]}/{c.sender[1]})"
+        log.info(text)
+        self.transport.statustext(Severity.INFO, text)  # every station: another one's plan changed too
 
     def _finish(self, result: int, text: str = "") -> None:
         self._judge = None

@@ -271,6 +271,7 @@ def test_accepted_by_validator_and_core_then_persisted_and_acked(tmp_path: Path)
     c.link.answer(req.id, core.accepted("mission replaced (2 goals), goal 0"))
     c.poll()
     assert c.mission_ack() == C.MAV_MISSION_ACCEPTED and c.link.mission() == cand
+    assert c.texts() == ["mission accepted: 2 goals, 1 obstacles (255/190)"]  # told to every station
     loaded = StateStore(tmp_path).load_plan(TYPE_MISSION)
     assert loaded is not None and [i.x for i in loaded] == [70000, 80000]
     # a fence upload is checked with the stored goals and does not change them

@@ -360,9 +360,9 @@ class MissionMachine(_VehicleMachine):
         s = self.peers[who]
         return (s.link, s.system_id, s.component_id)
 
-    def check_out(self, expected: list[tuple[Any, ...]], texts: list[tuple[str, str]]) -> None:
+    def check_out(self, expected: list[tuple[Any, ...]], texts: list[tuple[str | None, str]]) -> None:
         """What the vehicle sent since the last look is exactly ``expected`` (in order) and one STATUSTEXT
-        per (peer, words) of ``texts`` to that peer's link containing the words."""
+        per (peer, words) of ``texts`` to that peer's link (peer None: to every one) containing the words."""
         out = self.vehicle.take()
         got: list[tuple[Any, ...]] = []
         for m, link in out:
@@ -388,7 +388,8 @@ class MissionMachine(_VehicleMachine):
         sent = texts_of(out)
         assert len(sent) == len(texts), (sent, texts)
         for (link, text), (who, words) in zip(sent, texts, strict=True):
-            assert link == self.peers[who].link and words in text, (link, text, who, words)
+            to = None if who is None else self.peers[who].link  # None: to every station
+            assert link == to and words in text, (link, text, who, words)
 
     # ---- the model's transitions -------------------------------------------------------------------
     def ack(self, who: str, result: int, mt: int) -> tuple[Any, ...]:
@@ -418,6 +419,7 @@ class MissionMachine(_VehicleMachine):
         if result == ACCEPTED:
             self.stored.update(j.plans)
             self.last_done = None if j.final is None else (j.owner, j.mt, j.final[0], j.final[1].key())
+            texts.append((None, " accepted: "))  # to every station: the plan changed
         else:
             texts.append((j.owner, words))
         exp.append(self.ack(j.owner, result, j.mt))
