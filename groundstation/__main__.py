@@ -182,9 +182,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("value", nargs="?", type=float)
     p = sub.add_parser("monitor", help="live telemetry table")
     p.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0 = never)")
-    p = sub.add_parser("plot", help="plot track and errors from a tlog")
-    p.add_argument("tlog", type=Path)
-    p.add_argument("-o", "--output", type=Path, help="image file (default: TLOG with .png)")
+    p = sub.add_parser("plot", help="plot a flight log (.mcap) or a tlog: track, paths, goals, states")
+    p.add_argument("tlog", type=Path, metavar="FILE")
+    p.add_argument("-o", "--output", type=Path, help="image file (default: FILE with .png)")
     gcs_map.add_parser(sub)
     return ap
 
