@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import contextlib
 import subprocess
+import sys
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from auv_common.process import stop_process
@@ -22,3 +24,22 @@ def processes() -> Iterator[list[subprocess.Popen[Any]]]:
     finally:
         for p in reversed(procs):
             stop(p)
+
+
+def bench_cmd(channel: str, start: str, duration_s: float, *extra: str) -> list[str]:
+    """``auv-hil run`` in real time on ``channel`` from ``start`` ("X,Y,DEPTH,YAW_DEG"), basin sensors."""
+    return [
+        sys.executable, "-m", "hil_sim", "run", "--mode=realtime", f"--channel={channel}",
+        f"--start={start}", f"--duration={duration_s:g}", "--profile=basin", *extra,
+    ]  # fmt: skip
+
+
+def onboard_cmd(channel: str, mav_port: int, state_dir: Path, *extra: str) -> list[str]:
+    """``auv-onboard run`` on ``channel``, MAVLink on ``udpin:127.0.0.1:mav_port``, its own state dir."""
+    return [
+        sys.executable, "-m", "onboard", "run",
+        "--set", f'bus.channel="{channel}"',
+        "--set", f'mavlink.endpoints=["udpin:127.0.0.1:{mav_port}"]',
+        "--state-dir", str(state_dir),
+        *extra,
+    ]  # fmt: skip

@@ -22,22 +22,12 @@ import pytest
 from pymavlink import mavutil
 
 from hil_sim.scenario import free_port, free_udp_port, mission_yaml, run_gcs
-from tests.e2e.procs import processes
+from tests.e2e.procs import bench_cmd, onboard_cmd, processes
 
 pytestmark = pytest.mark.e2e
 
 START = (-13.0, 0.0, 0.0)  # paper-straight
 GOAL = (15.0, 0.0, 0.0)
-
-
-def _onboard_cmd(channel: str, mav_port: int, state_dir: Path, *extra: str) -> list[str]:
-    return [
-        sys.executable, "-m", "onboard", "run",
-        "--set", f'bus.channel="{channel}"',
-        "--set", f'mavlink.endpoints=["udpin:127.0.0.1:{mav_port}"]',
-        "--state-dir", str(state_dir),
-        *extra,
-    ]  # fmt: skip
 
 
 def _tlog_messages(tlog_dir: Path, kinds: list[str]) -> list[Any]:
@@ -87,15 +77,12 @@ def test_monitor_shows_the_real_loop_telemetry(tmp_path: Path) -> None:
     mission = tmp_path / "mission.yaml"
     mission.write_text(mission_yaml(GOAL))
     tlogs = tmp_path / "tlogs"
-    hil_cmd = [
-        sys.executable, "-m", "hil_sim", "run", "--mode=realtime", f"--channel={channel}",
-        f"--start={START[0]},{START[1]},1.0,{START[2]}", "--duration=60", "--profile=basin",
-    ]  # fmt: skip
+    hil_cmd = bench_cmd(channel, f"{START[0]},{START[1]},1.0,{START[2]}", 60)
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
         procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
         procs.append(
             subprocess.Popen(
-                _onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
+                onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
             )
         )
         code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
@@ -150,7 +137,7 @@ def test_mission_survives_kill_9_after_the_upload_ack(tmp_path: Path) -> None:
     ]
     with processes() as procs, open(tmp_path / "onboard.log", "w") as log:
         procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
-        first = subprocess.Popen(_onboard_cmd(channel, mav_port, state), stdout=log, stderr=subprocess.STDOUT)
+        first = subprocess.Popen(onboard_cmd(channel, mav_port, state), stdout=log, stderr=subprocess.STDOUT)
         procs.append(first)
         code, data = run_gcs(url, tmp_path, "wait-ready", "--timeout", "20", timeout_s=20.0)
         assert code == 0, data
@@ -160,7 +147,7 @@ def test_mission_survives_kill_9_after_the_upload_ack(tmp_path: Path) -> None:
         first.kill()
         first.wait(5)
         procs.append(
-            subprocess.Popen(_onboard_cmd(channel, mav_port, state), stdout=log, stderr=subprocess.STDOUT)
+            subprocess.Popen(onboard_cmd(channel, mav_port, state), stdout=log, stderr=subprocess.STDOUT)
         )
         code, data = run_gcs(url, tmp_path, "download", timeout_s=20.0)
     # THEN the mission and the fence are there

@@ -45,7 +45,7 @@ from groundstation.mavclient import LinkError, MavClient
 from groundstation.mission_files import goal_item, obstacle_item
 from groundstation.tlog import read_tlog
 from hil_sim.scenario import free_port, free_udp_port, run_gcs
-from tests.e2e.procs import processes
+from tests.e2e.procs import bench_cmd, onboard_cmd, processes
 
 pytestmark = pytest.mark.e2e
 
@@ -175,15 +175,6 @@ class Flight:
     map_url: str
 
 
-def _onboard_cmd(channel: str, mav_port: int, state_dir: Path) -> list[str]:
-    return [
-        sys.executable, "-m", "onboard", "run",
-        "--set", f'bus.channel="{channel}"',
-        "--set", f'mavlink.endpoints=["udpin:127.0.0.1:{mav_port}"]',
-        "--state-dir", str(state_dir),
-    ]  # fmt: skip
-
-
 def start_map(procs: list[Any], *args: str, log: Any) -> str:
     """Start ``auv-gcs --json ... map ...``; its URL from its ready line (it prints it once it serves)."""
     proc = subprocess.Popen(
@@ -209,15 +200,12 @@ def flight(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Flight]:
     mission = tmp / "mission.yaml"
     mission.write_text(MISSION_YAML)
     tlogs = tmp / "tlogs"
-    hil_cmd = [
-        sys.executable, "-m", "hil_sim", "run", "--mode=realtime", f"--channel={channel}",
-        f"--start={','.join(str(v) for v in START)}", "--duration=90", "--profile=basin",
-    ]  # fmt: skip
+    hil_cmd = bench_cmd(channel, ",".join(str(v) for v in START), 90)
     with processes() as procs, open(tmp / "procs.log", "w") as log:
         procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
         procs.append(
             subprocess.Popen(
-                _onboard_cmd(channel, mav_port, tmp / "state"), stdout=log, stderr=subprocess.STDOUT
+                onboard_cmd(channel, mav_port, tmp / "state"), stdout=log, stderr=subprocess.STDOUT
             )
         )
         code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
