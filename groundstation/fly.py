@@ -33,6 +33,7 @@ from groundstation.mavclient import MavClient, state_from_heartbeat
 
 EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 LINK_LOST_S = 5.0
+START_WAIT_S = 5.0  # after the START's ACK, how long the vehicle may take to report RUNNING
 REASON_WAIT_S = 0.5  # after the state changes, how long the vehicle's STATUSTEXT with the reason may take
 FLYING = ("RUNNING",)
 
@@ -123,7 +124,7 @@ def watch(
     emit = emit or (lambda d: sys.stdout.write(json.dumps(d) + "\n"))
     last_hb = time.monotonic()
     started = False
-    t_state = time.monotonic()
+    t_watch = t_state = texts_from = time.monotonic()
     next_json = 0.0
     bar = None
     if not as_json:
@@ -144,13 +145,14 @@ def watch(
                     last_hb = now
                     if p.state != before:
                         t_state = now
-                if m.get_type() == "STATUSTEXT" and bar is not None:
-                    bar.console.print(f"[dim]vehicle:[/] {client.texts[-1].text if client.texts else ''}")
                 if m.get_type() == "MISSION_ITEM_REACHED" and bar is not None:
                     bar.console.print(f"goal {p.reached} of {goals} reached")
             if p.state in FLYING:
                 started = True
             if bar is not None:
+                for text in client.texts_since(texts_from):  # each text of the vehicle once, whole
+                    bar.console.print(f"[dim]vehicle:[/] {text.text}")
+                    texts_from = text.t_s + 1e-9
                 bar.update(task, completed=p.reached, info=p.line())
             elif now >= next_json:
                 next_json = now + 1.0
@@ -166,13 +168,13 @@ def watch(
             if started and p.state not in FLYING:
                 why = _reason(client, t_state - 0.5)
                 return EXIT_REFUSED, {**p.as_dict(), "ok": False, "reason": why}
-            if not started and p.state in ("ABORT", "IDLE") and now - t_state > 3.0:
+            # not started yet: a heartbeat from before the START may still say ARMED; any other state
+            # (HOLD: the first leg could not be planned; ABORT) or ARMED for long is the end, with the reason
+            waiting = p.state in ("?", "ARMED") and now - t_watch < START_WAIT_S
+            if not started and not waiting:
                 why = _reason(client, t_state - 0.5)
-                return EXIT_REFUSED, {
-                    **p.as_dict(),
-                    "ok": False,
-                    "reason": why or "the mission did not start",
-                }
+                why = why or "the mission did not start"
+                return EXIT_REFUSED, {**p.as_dict(), "ok": False, "reason": why}
     finally:
         if bar is not None:
             bar.stop()

@@ -1,0 +1,87 @@
+"""``auv-gcs fly``'s watch: how a started mission ends, from the vehicle's messages (a scripted client)."""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+from rich.console import Console
+
+from groundstation import fly
+from groundstation.mavclient import StatusText
+
+ARMED_FLAG = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+MANUAL, AUTO, POSHOLD, SURFACE = 19, 3, 16, 9
+
+
+def hb(mode: int, armed: bool = True, status: int = mavlink.MAV_STATE_ACTIVE) -> Any:
+    base = ARMED_FLAG if armed else mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    return mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_SUBMARINE, 0, base, mode, status, 3)
+
+
+def nav(dist_m: int) -> Any:
+    return mavlink.MAVLink_nav_controller_output_message(0, 0, 0, 0, dist_m, 0.1, 0, 0.05)
+
+
+class Script:
+    """A client that hands out scripted messages (each ``None`` is a quiet 0.1 s) and the texts given."""
+
+    def __init__(self, *steps: Any) -> None:
+        self.steps = deque(steps)
+        self.texts: deque[StatusText] = deque()
+
+    def recv(self, timeout_s: float) -> Any:
+        step = self.steps.popleft() if self.steps else None
+        if isinstance(step, str):  # a text of the vehicle, as the assembler gives it
+            self.texts.append(StatusText(mavlink.MAV_SEVERITY_WARNING, step, time.monotonic()))
+            return None
+        if step is None:
+            time.sleep(min(timeout_s, 0.01))
+        return step
+
+    def from_vehicle(self, m: Any) -> bool:
+        return True
+
+    def texts_since(self, t_s: float) -> list[StatusText]:
+        return [t for t in self.texts if t.t_s >= t_s]
+
+
+def watch(script: Script, goals: int = 1) -> tuple[int, dict[str, Any]]:
+    return fly.watch(script, goals, Console(quiet=True), as_json=True, emit=lambda d: None)  # type: ignore[arg-type]
+
+
+def test_complete_is_exit_0_with_the_goals_reached() -> None:
+    code, data = watch(
+        Script(hb(AUTO), nav(12), mavlink.MAVLink_mission_item_reached_message(0), hb(SURFACE, False))
+    )
+    assert code == fly.EXIT_OK and data["state"] == "COMPLETE" and data["reached"] == 1 and data["ok"]
+
+
+def test_an_abort_while_running_is_exit_1_with_the_vehicles_reason() -> None:
+    script = Script(
+        hb(AUTO), "abort: RUNNING -> ABORT: depth limit", hb(SURFACE, False, mavlink.MAV_STATE_CRITICAL)
+    )
+    code, data = watch(script)
+    assert code == fly.EXIT_REFUSED and data["state"] == "ABORT"
+    assert data["reason"] == "abort: RUNNING -> ABORT: depth limit"
+
+
+def test_a_hold_before_running_is_the_end_not_a_wait() -> None:
+    # the START was accepted, but the first leg could not be planned: the vehicle holds with the reason
+    script = Script(hb(MANUAL), "start: ARMED -> HOLD: leg 0 cannot be planned", hb(POSHOLD))
+    code, data = watch(script)
+    assert (
+        code == fly.EXIT_REFUSED and data["state"] == "HOLD" and "leg 0 cannot be planned" in data["reason"]
+    )
+
+
+def test_a_vehicle_that_never_runs_or_goes_silent_ends_the_watch(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(fly, "START_WAIT_S", 0.2)
+    code, data = watch(Script(hb(MANUAL), *[None] * 100))
+    assert code == fly.EXIT_REFUSED and data["reason"] == "the mission did not start"
+    monkeypatch.setattr(fly, "LINK_LOST_S", 0.2)
+    code, data = watch(Script(hb(AUTO), *[None] * 100))
+    assert code == fly.EXIT_ERROR and data["reason"] == "no heartbeat for 0.2 s"
