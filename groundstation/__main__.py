@@ -487,7 +487,11 @@ def _fly(
     offset = 1 if mission_files.is_home_placeholder(goals) else 0
     n_goals = len(goals) - offset
     try:
-        code, data = fly.watch(client, n_goals, out.console, home_offset=offset, as_json=out.as_json)
+        flown = goals[offset:]
+        xy = [mission_files.local_xy_m(g) for g in flown]
+        code, data = fly.watch(
+            client, n_goals, out.console, home_offset=offset, goal_xy_m=xy, as_json=out.as_json
+        )
     except KeyboardInterrupt:
         try:
             ok, answer = fly.hold(client)

@@ -51,7 +51,8 @@ class FlightView:
     cross_track_m: float = math.nan
     depth_error_m: float = math.nan
     home_offset: int = 0  # MAVLink seq - goal index (1 when the mission holds a home item)
-    texts: list[str] = field(default_factory=list)
+    goal_xy_m: list[tuple[float, float] | None] = field(default_factory=list)  # local goals (None: global)
+    whole_metres: bool = True  # the distance is NAV_CONTROLLER_OUTPUT's wp_dist (whole metres)
 
     def feed(self, m: Any) -> None:
         kind = m.get_type()
@@ -62,11 +63,18 @@ class FlightView:
         elif kind == "MISSION_ITEM_REACHED":
             self.reached = max(self.reached, int(m.seq) - self.home_offset + 1)
         elif kind == "NAV_CONTROLLER_OUTPUT":
-            self.distance_m = float(m.wp_dist)
+            if self._goal_xy() is None:
+                self.distance_m, self.whole_metres = float(m.wp_dist), True
             self.cross_track_m = float(m.xtrack_error)
             self.depth_error_m = float(m.alt_error)
         elif kind == "LOCAL_POSITION_NED":
             self.speed_mps = math.hypot(float(m.vx), float(m.vy))
+            goal = self._goal_xy()
+            if goal is not None:  # to the decimetre, from where the vehicle says it is
+                self.distance_m, self.whole_metres = math.hypot(goal[0] - m.x, goal[1] - m.y), False
+
+    def _goal_xy(self) -> tuple[float, float] | None:
+        return self.goal_xy_m[self.goal] if 0 <= self.goal < len(self.goal_xy_m) else None
 
     @property
     def eta_s(self) -> float:
@@ -80,7 +88,7 @@ class FlightView:
 
         return (
             f"{self.state:8s} goal {min(self.goal + 1, self.goals)}/{self.goals}  "
-            f"{f(self.distance_m, 'm')} to go, ETA {f(self.eta_s, 's', 0)}  "
+            f"{f(self.distance_m, 'm', 0 if self.whole_metres else 1)} to go, ETA {f(self.eta_s, 's', 0)}  "
             f"cross-track {f(self.cross_track_m, 'm', 2)}  depth error {f(self.depth_error_m, 'm', 2)}"
         )
 
@@ -116,11 +124,12 @@ def watch(
     console: Console,
     *,
     home_offset: int = 0,
+    goal_xy_m: list[tuple[float, float] | None] | None = None,
     as_json: bool = False,
     emit: Callable[[dict[str, Any]], None] | None = None,
 ) -> tuple[int, dict[str, Any]]:
     """Watch a started mission to its end (see the module docstring); (exit code, final data)."""
-    p = FlightView(goals, home_offset=home_offset)
+    p = FlightView(goals, home_offset=home_offset, goal_xy_m=goal_xy_m or [])
     emit = emit or (lambda d: sys.stdout.write(json.dumps(d) + "\n"))
     last_hb = time.monotonic()
     started = False
@@ -146,7 +155,8 @@ def watch(
                     if p.state != before:
                         t_state = now
                 if m.get_type() == "MISSION_ITEM_REACHED" and bar is not None:
-                    bar.console.print(f"goal {p.reached} of {goals} reached")
+                    index = int(m.seq) - home_offset  # the vehicle's own numbering (from 0)
+                    bar.console.print(f"goal {index} reached ({p.reached} of {goals})")
             if p.state in FLYING:
                 started = True
             if bar is not None:

@@ -107,6 +107,14 @@ def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None) -> 
     )
 
 
+def local_xy_m(item: Item) -> tuple[float, float] | None:
+    """(x north, y east) in metres of a local-frame item; None for a global one (its origin is the
+    vehicle's)."""
+    if item.frame != mavlink.MAV_FRAME_LOCAL_NED:
+        return None
+    return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE
+
+
 def obstacle_item(x_m: float, y_m: float, radius_m: float) -> Item:
     return Item(
         frame=mavlink.MAV_FRAME_LOCAL_NED,

@@ -85,3 +85,14 @@ def test_a_vehicle_that_never_runs_or_goes_silent_ends_the_watch(monkeypatch: py
     monkeypatch.setattr(fly, "LINK_LOST_S", 0.2)
     code, data = watch(Script(hb(AUTO), *[None] * 100))
     assert code == fly.EXIT_ERROR and data["reason"] == "no heartbeat for 0.2 s"
+
+
+def test_the_distance_to_go_is_from_the_position_when_the_goal_is_local() -> None:
+    view = fly.FlightView(2, goal_xy_m=[(10.0, 0.0), None])
+    view.feed(mavlink.MAVLink_local_position_ned_message(0, 3.7, 0.0, 1.0, 1.0, 0.0, 0.0))
+    view.feed(nav(6))
+    assert view.distance_m == pytest.approx(6.3) and "6.3 m to go" in view.line()
+    assert view.eta_s == pytest.approx(6.3)
+    view.feed(mavlink.MAVLink_mission_current_message(1, 2, mavlink.MISSION_STATE_ACTIVE, 1))
+    view.feed(nav(42))  # a global goal: NAV_CONTROLLER_OUTPUT's whole metres, said as such
+    assert view.distance_m == 42.0 and "42 m to go" in view.line()
