@@ -117,6 +117,7 @@ class VehicleLink:
             FileTree(self.telemetry.snapshot, log_dir if log_dir is not None else self.store.dir / "logs"),
             config.system_id,
             config.component_id,
+            clock,
         )
         self.params = ParamService(config, self.transport, self.requests, self.store, params, param_values)
         self._lock = threading.Lock()

@@ -12,7 +12,10 @@ is served (:class:`FileTree`):
   (the one being written may grow after it was opened: a read sees the size at the open).
 
 Opcodes: ResetSessions, TerminateSession, ListDirectory, OpenFileRO, ReadFile, BurstReadFile,
-CalcFileCRC32 (zlib's CRC-32 of the whole file). Every write opcode is NAKed FileProtected; any other
+CalcFileCRC32 (zlib's CRC-32 of the whole file). The work a request costs is bounded: the path file is made
+once per path, a log's CRC read once per version of it, and the replies of all bursts together stay under
+:data:`TX_PACKETS_PER_S` (a burst beyond it is cut short: the reader asks again from where it ended).
+Every write opcode is NAKed FileProtected; any other
 UnknownCommand. At most :data:`MAX_SESSIONS` files open at once (then NoSessionsAvailable); a session is
 its opener's. A request re-sent as it was (sequence number and content) gets the same reply again (its
 reply was lost), so opening is not done twice; MAVProxy starts every transfer at sequence 0, so the
@@ -28,6 +31,7 @@ from __future__ import annotations
 import json
 import logging
 import struct
+import time
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -57,6 +61,7 @@ from auv_common.mavlink_ftp import (
     WRITE_OPS,
     Packet,
 )  # fmt: skip
+from auv_common.token_bucket import TokenBucket
 from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.transport import Transport, addressed_to
@@ -65,6 +70,7 @@ log = logging.getLogger(__name__)
 
 MAX_SESSIONS = 4
 BURST_PACKETS = 64  # data packets per BurstReadFile request (15 kB); the reader asks again for the rest
+TX_PACKETS_PER_S = 2000.0  # every station's FTP replies together (500 kB/s): a burst beyond it is cut short
 PATH_STEP_M = 0.5
 PATH_FILE = "@PATH/planned.json"
 LOG_DIR = "logs"
@@ -105,13 +111,17 @@ class FileTree:
         self.log_dir = log_dir
         self._path_obj: object = _UNSEEN
         self._version = 0
+        self._path_doc = b""
+        self._crcs: dict[tuple[str, int, int], int] = {}  # a log's CRC by (name, size, mtime): read once
 
     def _path_bytes(self) -> bytes:
+        """The path file, made once per path (a request costs no re-sampling)."""
         s = self._snapshot()
         if s.path is not self._path_obj:
             self._path_obj = s.path
             self._version += 1
-        return path_document(s, self._version)
+            self._path_doc = path_document(s, self._version)
+        return self._path_doc
 
     def _logs(self) -> dict[str, Path]:
         try:
@@ -145,10 +155,23 @@ class FileTree:
             p = self._logs().get(name)
             if p is not None:
                 try:
-                    return _OpenFile(file=p, size=p.stat().st_size)
+                    st = p.stat()
                 except OSError:
                     return None
+                return _OpenFile(file=p, size=st.st_size, crc_key=(name, st.st_size, st.st_mtime_ns))
         return None
+
+    def crc32(self, f: _OpenFile) -> int:
+        """CalcFileCRC32 of an opened file; a log's is read once per version of it (a request repeated
+        does not re-read megabytes)."""
+        if f.crc_key is None:
+            return f.crc32()
+        crc = self._crcs.get(f.crc_key)
+        if crc is None:
+            if len(self._crcs) > 64:
+                self._crcs.clear()
+            crc = self._crcs[f.crc_key] = f.crc32()
+        return crc
 
 
 @dataclass
@@ -157,6 +180,7 @@ class _OpenFile:
     file: Path | None = None
     size: int = 0
     owner: tuple[int, int] = (0, 0)
+    crc_key: tuple[str, int, int] | None = None
 
     def __post_init__(self) -> None:
         if self.data is not None:
@@ -190,9 +214,11 @@ class FtpService:
     tree: FileTree
     system_id: int
     component_id: int
+    clock: Callable[[], float] = time.monotonic
     sessions: dict[int, _OpenFile] = field(default_factory=dict)
     _last: dict[tuple[int, int], tuple[Packet, list[bytes]]] = field(default_factory=dict)
     served: int = 0
+    tx: TokenBucket = field(default_factory=lambda: TokenBucket(TX_PACKETS_PER_S, 2 * BURST_PACKETS))
 
     def handle(self, msg: mavlink.MAVLink_message, sender: Sender) -> None:
         if not addressed_to(msg, self.system_id, self.component_id):
@@ -261,7 +287,7 @@ class FtpService:
             if f is None:
                 return [self._nak(req, FILE_NOT_FOUND)]
             if op == CRC32:
-                return [self._ack(req, struct.pack("<I", f.crc32()))]
+                return [self._ack(req, struct.pack("<I", self.tree.crc32(f)))]
             if len(self.sessions) >= MAX_SESSIONS:
                 return [self._nak(req, NO_SESSIONS)]
             # the opener's own number when free (MAVProxy picks one and routes the replies by it, as
@@ -282,7 +308,10 @@ class FtpService:
                 return [self._ack(req, f.read(req.offset, min(req.size or DATA_MAX, DATA_MAX)))]
             burst: list[Packet] = []
             offset = req.offset
-            while offset < f.size and len(burst) < BURST_PACKETS:
+            now = self.clock()
+            # the first packet always (one per request, which the receive share bounds); more while the
+            # reply budget lasts
+            while offset < f.size and len(burst) < BURST_PACKETS and (not burst or self.tx.take(now)):
                 chunk = f.read(offset, DATA_MAX)
                 if not chunk:
                     break
