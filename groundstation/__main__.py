@@ -194,7 +194,7 @@ class _Out:
         self.as_json = as_json
         from rich.console import Console
 
-        self.console = Console(stderr=as_json)
+        self.console = Console(stderr=as_json, soft_wrap=True)  # a line is one line, however long
 
     def done(self, data: dict[str, Any], text: str) -> None:
         if self.as_json:

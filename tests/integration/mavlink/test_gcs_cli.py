@@ -479,6 +479,12 @@ def test_cli_edges_are_one_line_with_a_reason(vehicle: Vehicle, tmp_path: Path, 
         assert code == 2 and "cannot open" in out["error"] and "in use" in out["error"], out
     finally:
         taken.close()
+    # a long error without --json is still one line (rich wrapped it at the terminal's width)
+    missing = tmp_path / ("a-long-folder-name-" * 6) / "mission.plan"
+    code = main(["--connect", f"udpout:127.0.0.1:{vehicle.port}", "--tlog-dir", str(tmp_path / "t"), "fly",
+                 str(missing)])  # fmt: skip
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and "No such file" in lines[0]
 
 
 def test_one_shot_commands_are_no_session_the_vehicle_watches(
