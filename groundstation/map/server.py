@@ -229,7 +229,11 @@ def make_app(source: Source, *, live: bool) -> web.Application:
     async def no_icon(_request: web.Request) -> web.Response:
         return web.Response(status=204)
 
-    async def ws_handler(request: web.Request) -> web.WebSocketResponse:
+    async def ws_handler(request: web.Request) -> web.StreamResponse:
+        origin = request.headers.get("Origin")
+        if origin is not None and origin != f"{request.scheme}://{request.host}":
+            # another site's page in the operator's browser may not read the vehicle (cross-site websocket)
+            return web.Response(status=403, text="websocket from another origin")
         ws = web.WebSocketResponse(heartbeat=10.0)
         await ws.prepare(request)
         page = _Page(ws)

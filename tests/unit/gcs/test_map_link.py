@@ -86,3 +86,28 @@ def test_the_link_downloads_the_plans_then_a_failure_is_shown_not_swallowed() ->
         and "link failed" in pic.telemetry["note"]
         and "socket closed" in pic.telemetry["note"]
     )
+
+
+def test_the_websocket_refuses_a_page_of_another_origin() -> None:
+    """A page of another site, open in the operator's browser, cannot read the vehicle through the map."""
+    import asyncio
+
+    import aiohttp
+    from aiohttp.test_utils import TestClient, TestServer
+
+    from groundstation.map.server import LiveSource, make_app
+
+    async def go() -> tuple[int, bool]:
+        app = make_app(LiveSource(MapModel(), threading.Lock(), "test"), live=False)
+        async with TestClient(TestServer(app)) as client:
+            upgrade = {"Upgrade": "websocket", "Connection": "Upgrade", "Sec-WebSocket-Version": "13",
+                       "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ=="}  # fmt: skip
+            bad = await client.get("/ws", headers={"Origin": "http://evil.example", **upgrade})
+            own = str(client.make_url("/")).rstrip("/")
+            ws = await client.ws_connect("/ws", headers={"Origin": own})
+            hello = await ws.receive(timeout=5)
+            await ws.close()
+            return bad.status, hello.type == aiohttp.WSMsgType.TEXT
+
+    status, ok = asyncio.run(go())
+    assert status == 403 and ok
