@@ -126,6 +126,7 @@ class Telemetry:
         self._snapshot = VehicleSnapshot(current_goal=progress or 0)
         self.published = False
         self._reached: collections.deque[int] = collections.deque(maxlen=256)
+        self._changed = False  # the state or the armed bit changed since the last poll
         self._streams: dict[int, _Stream] = {}
         for msg_id, rate in (
             (mavlink.MAVLINK_MSG_ID_HEARTBEAT, config.heartbeat_rate_hz),
@@ -145,7 +146,9 @@ class Telemetry:
 
     # ---- loop thread ---------------------------------------------------------------------------
     def publish(self, snapshot: VehicleSnapshot) -> None:
-        """Store the loop's latest state (O(1)); queue MISSION_ITEM_REACHED for newly reached goals."""
+        """Store the loop's latest state (O(1)); queue MISSION_ITEM_REACHED for newly reached goals, and a
+        HEARTBEAT and MISSION_CURRENT when the state changed: a ground station hears a transition at once,
+        not at the next 1 Hz beat (MAVSDK's ``is_mission_finished`` reads COMPLETE from MISSION_CURRENT)."""
         offset = self._shape()[0]
         with self._lock:
             prev = self._snapshot
@@ -153,6 +156,8 @@ class Telemetry:
             self.published = True
             for k in range(max(0, snapshot.goals_reached - prev.goals_reached)):
                 self._reached.append(seq_of_goal(prev.current_goal + k, offset))
+            if snapshot.state is not prev.state or snapshot.armed != prev.armed:
+                self._changed = True
 
     def snapshot(self) -> VehicleSnapshot:
         with self._lock:
@@ -180,6 +185,11 @@ class Telemetry:
                     break
                 seq = self._reached.popleft()
             self.transport.send(mavlink.MAVLink_mission_item_reached_message(seq))
+        with self._lock:
+            changed, self._changed = self._changed, False
+        if changed:  # after the reached goals: a station sees the goal, then the state it led to
+            self.send_message(mavlink.MAVLINK_MSG_ID_HEARTBEAT)
+            self.send_mission_current()
         for msg_id, stream in self._streams.items():
             if now >= stream.next_s:
                 stream.next_s = max(stream.next_s + stream.period_s, now) if stream.next_s else now
@@ -188,7 +198,7 @@ class Telemetry:
 
     def next_deadline(self) -> float:
         with self._lock:
-            if self._reached:
+            if self._reached or self._changed:
                 return self._clock()
         return min(s.next_s for s in self._streams.values())
 
