@@ -39,7 +39,6 @@ import math
 import os
 import platform
 import queue
-import re
 import threading
 import time
 import typing
@@ -51,6 +50,7 @@ from typing import Any, BinaryIO
 from mcap.writer import CompressionType, Writer
 
 from auv_common.config import require
+from onboard.adapters.log_files import log_files
 from onboard.adapters.mavlink.api import MISSION_STATES, Request, VehicleSnapshot
 from onboard.core.commands import Note, Verdict
 from onboard.core.mission.model import Goal, Obstacle
@@ -62,7 +62,6 @@ log = logging.getLogger(__name__)
 #: The spacing of the path samples in /path (m of arc length; the last gap may be shorter: both ends kept).
 PATH_STEP_M = 0.5
 #: A file name of the log: the UTC start time, then ``-N`` when that second already had a file.
-FILE_NAME = re.compile(r"^flight-(\d{8}-\d{6})(?:-(\d+))?\.mcap$")
 #: Ticks the writer may lag behind before the loop drops them (about 100 s at 20 Hz).
 QUEUE_TICKS = 2048
 #: A chunk also ends at this many bytes (lock-step runs faster than the wall clock).
@@ -564,20 +563,6 @@ class LoggedLink:
 # --- files ----------------------------------------------------------------------------------------------
 def _utc_iso(t: dt.datetime) -> str:
     return t.astimezone(dt.UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-
-
-def log_files(directory: Path) -> list[Path]:
-    """The flight logs in ``directory``, oldest first (by the start time in the name; other files ignored)."""
-    found = []
-    try:
-        entries = list(Path(directory).iterdir())
-    except OSError:
-        return []
-    for p in entries:
-        m = FILE_NAME.match(p.name)
-        if m and p.is_file():
-            found.append(((m.group(1), int(m.group(2) or 1)), p))
-    return [p for _, p in sorted(found)]
 
 
 def rotate(directory: Path, keep_files: int) -> list[Path]:

@@ -15,12 +15,16 @@ Opcodes: ResetSessions, TerminateSession, ListDirectory, OpenFileRO, ReadFile, B
 CalcFileCRC32 (zlib's CRC-32 of the whole file). The work a request costs is bounded: the path file is made
 once per path, a log's CRC read once per version of it, and the replies of all bursts together stay under
 :data:`TX_PACKETS_PER_S` (a burst beyond it is cut short: the reader asks again from where it ended).
-Every write opcode is NAKed FileProtected; any other
-UnknownCommand. At most :data:`MAX_SESSIONS` files open at once (then NoSessionsAvailable); a session is
-its opener's. A request re-sent as it was (sequence number and content) gets the same reply again (its
-reply was lost), so opening is not done twice; MAVProxy starts every transfer at sequence 0, so the
-sequence number alone does not tell a resend. Names are looked up in the tree, never joined to a path:
-``..`` or an absolute path is simply not found.
+Every write opcode is NAKed FileProtected; any other UnknownCommand.
+
+At most :data:`MAX_SESSIONS` files are open at once (then NoSessionsAvailable). A session is its opener's,
+and is closed after :data:`SESSION_IDLE_S` without a request: a reader stopped mid-transfer would otherwise
+hold it until a reboot, since each ground station has ids of its own and none could reset it.
+
+A request re-sent as it was (sequence number and content) gets the same reply again (its reply was lost),
+so opening is not done twice; reads are answered anew (they are idempotent). MAVProxy starts every transfer
+at sequence 0, so the sequence number alone does not tell a resend. Names are looked up in the tree, never
+joined to a path: ``..`` or an absolute path is simply not found.
 
 MAVProxy (``ftp list``, ``ftp get @PATH/planned.json``) and QGroundControl speak this protocol, as does
 ``groundstation.mavclient.MavClient.read_file``.
@@ -62,6 +66,7 @@ from auv_common.mavlink_ftp import (
     Packet,
 )  # fmt: skip
 from auv_common.token_bucket import TokenBucket
+from onboard.adapters.log_files import log_files
 from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.transport import Transport, addressed_to
@@ -69,6 +74,7 @@ from onboard.adapters.mavlink.transport import Transport, addressed_to
 log = logging.getLogger(__name__)
 
 MAX_SESSIONS = 4
+SESSION_IDLE_S = 5.0  # a session with no request for this long is closed (its reader is gone)
 BURST_PACKETS = 64  # data packets per BurstReadFile request (15 kB); the reader asks again for the rest
 TX_PACKETS_PER_S = 2000.0  # every station's FTP replies together (500 kB/s): a burst beyond it is cut short
 PATH_STEP_M = 0.5
@@ -124,10 +130,8 @@ class FileTree:
         return self._path_doc
 
     def _logs(self) -> dict[str, Path]:
-        try:
-            return {p.name: p for p in sorted(self.log_dir.glob("*.mcap")) if p.is_file()}
-        except OSError:
-            return {}
+        """The flight logs, oldest first, by the one naming rule (other files are not served)."""
+        return {p.name: p for p in log_files(self.log_dir)}
 
     def listing(self, path: str) -> list[bytes] | None:
         """Directory entries (``F<name>\\t<size>`` / ``D<name>``), None if no such directory."""
@@ -180,6 +184,7 @@ class _OpenFile:
     file: Path | None = None
     size: int = 0
     owner: tuple[int, int] = (0, 0)
+    used_s: float = 0.0
     crc_key: tuple[str, int, int] | None = None
 
     def __post_init__(self) -> None:
@@ -228,9 +233,14 @@ class FtpService:
         except struct.error:
             return
         who = (sender.system_id, sender.component_id)
+        now = self.clock()
+        for sid in [s for s, f in self.sessions.items() if now - f.used_s > SESSION_IDLE_S]:
+            del self.sessions[sid]  # its reader was stopped mid-transfer, or lost its TERMINATE
         last = self._last.get(who)
-        if last is not None and last[0] == req:
-            replies = last[1]  # the same request again (same sequence number and content): its reply was lost
+        if last is not None and last[0] == req and req.opcode not in (READ, BURST_READ):
+            # the same request again (same sequence number and content): its reply was lost. Reads are
+            # answered anew (they are idempotent, and a burst must spend the reply budget again)
+            replies = last[1]
         else:
             try:
                 replies = [p.encode() for p in self._answer(req, who)]
@@ -295,13 +305,14 @@ class FtpService:
             sid = (
                 req.session if req.session not in self.sessions else min(set(range(256)) - set(self.sessions))
             )
-            f.owner = who
+            f.owner, f.used_s = who, self.clock()
             self.sessions[sid] = f
             return [self._ack(req, struct.pack("<I", f.size), session=sid)]
         if op in (READ, BURST_READ):
             f = self.sessions.get(req.session)
             if f is None or f.owner != who:
                 return [self._nak(req, INVALID_SESSION)]
+            f.used_s = self.clock()
             if req.offset >= f.size:
                 return [self._nak(req, EOF)]
             if op == READ:
