@@ -396,7 +396,12 @@ def _run(
         fmt = args.format or mission_files.format_for(args.file)
         text = mission_files.dump(fmt, g, f)  # home: the vehicle's placeholder if it holds one (to_plan)
         if args.file:
-            args.file.write_text(text, encoding="utf-8")
+            try:
+                args.file.write_text(text, encoding="utf-8")
+            except OSError as exc:
+                why = f"cannot write {args.file}: {exc.strerror or exc}"
+                out.done({"ok": False, "error": why}, f"[red]error:[/] {_esc(why)}")
+                return EXIT_ERROR
         data = {
             "ok": True,
             "goals": len(g),
@@ -473,26 +478,30 @@ def _fly(
     if not ready:
         text = f"not ready after {args.ready_timeout:g} s" + (f": {why}" if why else "")
         return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, f"[red]{_esc(text)}[/]")
-    for step, (cmd, params) in (
-        ("arm", (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))),
-        ("start", (mavlink.MAV_CMD_MISSION_START, (0.0, 0.0))),
-    ):
-        ack = client.command_ack(cmd, *params)
-        if not ack.ok:
-            text = f"{step}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else "")
-            data = {"ok": False, "step": step, "result": ack.result_name, "reason": ack.reason}
-            return stop(exit_code_of_command(ack.result), data, f"[red]{_esc(text)}[/]")
-        if not out.as_json:
-            out.console.print(f"{step}: {ack.result_name}")
     offset = 1 if mission_files.is_home_placeholder(goals) else 0
     n_goals = len(goals) - offset
+    xy = [mission_files.local_xy_m(g) for g in goals[offset:]]
+    start_sent = False
     try:
-        flown = goals[offset:]
-        xy = [mission_files.local_xy_m(g) for g in flown]
+        for step, (cmd, params) in (
+            ("arm", (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))),
+            ("start", (mavlink.MAV_CMD_MISSION_START, (0.0, 0.0))),
+        ):
+            start_sent = step == "start"
+            ack = client.command_ack(cmd, *params)
+            if not ack.ok:
+                text = f"{step}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else "")
+                data = {"ok": False, "step": step, "result": ack.result_name, "reason": ack.reason}
+                return stop(exit_code_of_command(ack.result), data, f"[red]{_esc(text)}[/]")
+            if not out.as_json:
+                out.console.print(f"{step}: {ack.result_name}")
         code, data = fly.watch(
             client, n_goals, out.console, home_offset=offset, goal_xy_m=xy, as_json=out.as_json
         )
     except KeyboardInterrupt:
+        if not start_sent:  # nothing runs: the vehicle is at most armed, its propeller off
+            data = {"ok": False, "step": "interrupted", "hold": False, "reason": "before the start"}
+            return stop(EXIT_INTERRUPTED, data, "interrupted before the start: nothing sent after it")
         try:
             ok, answer = fly.hold(client)
         except LinkError as exc:
@@ -518,8 +527,10 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
         return EXIT_OK
     if not entries:
         out.done({"ok": False, "error": "no flight logs on the vehicle"}, "[red]error:[/] no flight logs")
-        return EXIT_REFUSED
+        return EXIT_ERROR  # as for a name not on the vehicle: nothing to download
     name = args.name or entries[-1][0]
+    if Path(name).name != name or name in ("", ".", ".."):  # a name the vehicle listed: never a path
+        raise LinkError(f"the vehicle listed a log name that is a path: {name!r}")
     target = args.output or Path(name)
     if target.is_dir():
         target = target / name
@@ -533,7 +544,12 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
             data = client.read_file(
                 f"logs/{name}", progress=lambda done, n: prog.update(task, completed=done, total=n)
             )
-    target.write_bytes(data)
+    try:
+        target.write_bytes(data)
+    except OSError as exc:
+        text = f"cannot write {target}: {exc.strerror or exc}"
+        out.done({"ok": False, "error": text}, f"[red]error:[/] {_esc(text)}")
+        return EXIT_ERROR
     out.done(
         {"ok": True, "name": name, "file": str(target), "bytes": len(data)},
         f"wrote {target} ({len(data)} bytes)",

@@ -34,6 +34,7 @@ from groundstation.mavclient import MavClient, state_from_heartbeat
 EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 LINK_LOST_S = 5.0
 START_WAIT_S = 5.0  # after the START's ACK, how long the vehicle may take to report RUNNING
+STALE_S = 1.5  # a heartbeat sent before the START took effect may still arrive this long after its ACK
 REASON_WAIT_S = 0.5  # after the state changes, how long the vehicle's STATUSTEXT with the reason may take
 FLYING = ("RUNNING",)
 
@@ -178,9 +179,11 @@ def watch(
             if started and p.state not in FLYING:
                 why = _reason(client, t_state - 0.5)
                 return EXIT_REFUSED, {**p.as_dict(), "ok": False, "reason": why}
-            # not started yet: a heartbeat from before the START may still say ARMED; any other state
-            # (HOLD: the first leg could not be planned; ABORT) or ARMED for long is the end, with the reason
-            waiting = p.state in ("?", "ARMED") and now - t_watch < START_WAIT_S
+            # not started yet: a heartbeat from before the START (sent between its ACK and the tick's
+            # snapshot) may still say the state before it (ARMED, or HOLD for a resume) for STALE_S; then
+            # any state but ARMED (HOLD: the first leg could not be planned; ABORT), or ARMED for long, is
+            # the end, with the reason
+            waiting = now - t_watch < STALE_S or (p.state in ("?", "ARMED") and now - t_watch < START_WAIT_S)
             if not started and not waiting:
                 why = _reason(client, t_state - 0.5)
                 why = why or "the mission did not start"

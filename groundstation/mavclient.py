@@ -759,6 +759,8 @@ class MavClient:
             if code == ftp.FILE_NOT_FOUND:
                 raise LinkError(f"no such file on the vehicle: {path}")
             raise LinkError(f"the vehicle cannot open {path} (FTP error {code})")
+        if len(opened.data) < 4:
+            raise LinkError(f"the vehicle's answer to opening {path} has no size")
         size = struct.unpack("<I", opened.data[:4])[0]
         out = bytearray()
         try:
@@ -772,7 +774,10 @@ class MavClient:
                 if progress is not None:
                     progress(len(out), size)
         finally:
-            self._ftp(ftp.TERMINATE, session=opened.session, on_other=on_other, retries=2)
+            try:  # the vehicle closes an idle session itself: a lost TERMINATE costs no download
+                self._ftp(ftp.TERMINATE, session=opened.session, on_other=on_other, retries=2)
+            except LinkError:
+                pass
         if len(out) < size:
             raise LinkError(f"{path}: read {len(out)} of {size} bytes")
         return bytes(out)

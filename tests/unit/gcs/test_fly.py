@@ -96,3 +96,9 @@ def test_the_distance_to_go_is_from_the_position_when_the_goal_is_local() -> Non
     view.feed(mavlink.MAVLink_mission_current_message(1, 2, mavlink.MISSION_STATE_ACTIVE, 1))
     view.feed(nav(42))  # a global goal: NAV_CONTROLLER_OUTPUT's whole metres, said as such
     assert view.distance_m == 42.0 and "42 m to go" in view.line()
+
+
+def test_a_heartbeat_from_before_a_resume_is_not_the_end() -> None:
+    # fly on a held vehicle: the START resumes it, but a HEARTBEAT sent before the tick still says HOLD
+    code, data = watch(Script(hb(POSHOLD), None, hb(AUTO), hb(SURFACE, False)))
+    assert code == fly.EXIT_OK and data["state"] == "COMPLETE"
