@@ -266,6 +266,10 @@ class Autopilot:
                 return self._judge(c.Abort("mode surface", src))
             if state in (_RUNNING, _HOLD):
                 return c.denied(f"{state.name}: hold or abort to leave the mission")
+            if state is _ABORT:
+                return c.denied("ABORT: disarm to acknowledge it")
+            if self.actuators_live:  # COMPLETE, loitering: the propeller turns, "ready" would be a lie
+                return c.denied(f"{state.name} (loitering): disarm to stop")
             return c.accepted(f"ready ({state.name}): nothing to change")
         if isinstance(command, c.ReplaceMission):
             return self._replace(command.mission, command.goals_changed, src)

@@ -116,7 +116,9 @@ ModeName = Literal["ready", "mission", "loiter", "surface"]
 @dataclass(frozen=True)
 class SetMode:
     """A mode request (MAVLink DO_SET_MODE): ``mission`` starts or resumes, ``loiter`` holds, ``surface``
-    aborts, ``ready`` is accepted only when the vehicle is not flying a mission (nothing to change)."""
+    aborts, ``ready`` is accepted only when nothing moves and nothing is to be acknowledged (IDLE, ARMED,
+    COMPLETE surfaced: nothing to change); denied with the reason while running, holding, loitering or in
+    ABORT."""
 
     mode: ModeName
     source: str = ""

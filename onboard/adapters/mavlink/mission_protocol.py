@@ -74,6 +74,7 @@ _LEGACY_FRAME_TO_INT = {
     mavlink.MAV_FRAME_GLOBAL: mavlink.MAV_FRAME_GLOBAL_INT,
     mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
 }
+_INT_FRAME_TO_LEGACY = {v: k for k, v in _LEGACY_FRAME_TO_INT.items()}
 
 
 @dataclass(frozen=True)
@@ -629,7 +630,8 @@ class MissionServer:
             scale = LOCAL_SCALE if it.frame == FRAME_LOCAL else GLOBAL_SCALE
             return [
                 mavlink.MAVLink_mission_item_message(
-                    sender[0], sender[1], seq, it.frame, it.command, 0, it.autocontinue,
+                    sender[0], sender[1], seq, _INT_FRAME_TO_LEGACY.get(it.frame, it.frame), it.command, 0,
+                    it.autocontinue,
                     it.param1, it.param2, it.param3, it.param4, it.x / scale, it.y / scale, it.z, mt,
                 )
             ]  # fmt: skip

@@ -56,6 +56,9 @@ from onboard.core.mission.model import Mission
 
 log = logging.getLogger(__name__)
 
+#: The flat-earth projection of the global frames holds away from the poles only.
+MAX_ORIGIN_LAT_DEG = 85.0
+
 
 class ProblemLike(Protocol):
     """One problem of :class:`onboard.core.mission.validate.MissionCheck`."""
@@ -201,15 +204,20 @@ class MissionService:
         """SET_GPS_GLOBAL_ORIGIN: move the geodetic origin of the local frame (persisted); "" when done,
         else why not. Refused while a mission or a fence is stored (its global items would move: the
         goals are the items converted about the origin) or a transfer is going on."""
-        if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0 and math.isfinite(alt_m)):
-            return f"origin out of range: lat {lat_deg:g}, lon {lon_deg:g}, alt {alt_m:g} m"
+        if not (-MAX_ORIGIN_LAT_DEG <= lat_deg <= MAX_ORIGIN_LAT_DEG and -180.0 <= lon_deg <= 180.0):
+            return f"origin out of range: lat {lat_deg:g} (|lat| <= {MAX_ORIGIN_LAT_DEG:g}), lon {lon_deg:g}"
+        if not math.isfinite(alt_m):
+            return f"origin out of range: alt {alt_m:g} m"
         if self.server.judging or self.server.transfer_sender is not None:
             return "origin not changed: a mission transfer is going on"
         if self.server.items(TYPE_MISSION) or self.server.items(TYPE_FENCE):
             return "origin not changed: a mission or fence is stored (clear it first; its items would move)"
+        try:  # saved first: an origin in force that a reboot would forget is not set
+            self.store.save_origin(lat_deg, lon_deg, alt_m)
+        except OSError as exc:
+            return f"origin not changed: it cannot be saved ({exc.strerror or exc})"
         self.limits = replace(self.limits, origin_lat_deg=lat_deg, origin_lon_deg=lon_deg, origin_alt_m=alt_m)
         self.server.limits = self.limits
-        self.store.save_origin(lat_deg, lon_deg, alt_m)
         return ""
 
     def handle(self, msg: mavlink.MAVLink_message, sender: Sender, now_s: float) -> None:

@@ -156,8 +156,10 @@ class Telemetry:
             self.published = True
             for k in range(max(0, snapshot.goals_reached - prev.goals_reached)):
                 self._reached.append(seq_of_goal(prev.current_goal + k, offset))
-            if snapshot.state is not prev.state or snapshot.armed != prev.armed:
-                self._changed = True
+            changed = snapshot.state is not prev.state or snapshot.armed != prev.armed
+            self._changed = self._changed or changed
+        if changed:
+            self.transport.wake()  # the I/O thread sends it now, not at its next stream's deadline
 
     def snapshot(self) -> VehicleSnapshot:
         with self._lock:

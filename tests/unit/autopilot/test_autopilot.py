@@ -316,6 +316,22 @@ def test_loiter_end_action_circles_the_last_goal_and_stays_armed() -> None:
     assert math.isclose(math.hypot(far.x_m - 20.0, far.y_m), r, rel_tol=1e-6)
 
 
+def test_mode_ready_is_refused_where_it_would_change_nothing_that_is_true() -> None:
+    """DO_SET_MODE MANUAL ("ready") was ACCEPTED "nothing to change" while the vehicle circled its last goal
+    (propeller on) and in ABORT: the operator was told the vehicle was ready while it drove on."""
+    ap = started((Goal(20.0, 0.0, 1.0, 0.0),), end_action="loiter")
+    tick(ap, 0.05)
+    ap.guidance_state = dataclasses.replace(ap.guidance_state, arrived=True)
+    out = tick(ap, 0.1, x=20.05, jump=True)
+    assert out.status.state is S.COMPLETE and ap.actuators_live
+    v = ap.handle(c.SetMode("ready"))
+    assert v.outcome is c.Outcome.DENIED and v.reason == "COMPLETE (loitering): disarm to stop"
+    assert ap.handle(c.Abort("test")).accepted
+    v = ap.handle(c.SetMode("ready"))
+    assert v.outcome is c.Outcome.DENIED and v.reason == "ABORT: disarm to acknowledge it"
+    assert ap.handle(c.Disarm()).accepted and ap.handle(c.SetMode("ready")).accepted  # IDLE: nothing to do
+
+
 def test_a_plan_that_misses_its_deadline_holds_with_the_reason() -> None:
     ap = Autopilot(core(plan_deadline_s=0.2))
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))

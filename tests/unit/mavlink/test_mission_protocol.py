@@ -115,6 +115,12 @@ def test_download_is_stateless_and_answers_legacy_request_in_kind() -> None:
     # a legacy MISSION_REQUEST gets a float MISSION_ITEM, local x/y in metres
     it = only(srv.handle(mavlink.MAVLink_mission_request_message(1, 1, 1, TYPE_MISSION), GCS, 0.0))
     assert it.get_type() == "MISSION_ITEM" and it.seq == 1 and (it.x, it.y, it.z) == (4.0, 5.0, 6.0)
+    # ... and a global item in its legacy frame (stored GLOBAL_RELATIVE_ALT_INT, sent GLOBAL_RELATIVE_ALT)
+    srv2 = MissionServer(LIMITS)
+    glob = wp(frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, x=351000000, y=1290400000, z=-2.0)
+    upload(srv2, [glob])
+    it = only(srv2.handle(mavlink.MAVLink_mission_request_message(1, 1, 0, TYPE_MISSION), GCS, 0.0))
+    assert it.frame == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT and it.x == pytest.approx(35.1)
     bad = only(srv.handle(mavlink.MAVLink_mission_request_int_message(1, 1, 5, TYPE_MISSION), GCS, 0.0))
     assert bad.type == mavlink.MAV_MISSION_INVALID_SEQUENCE
 

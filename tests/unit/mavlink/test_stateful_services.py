@@ -231,10 +231,14 @@ def legacy_msg_key(m: mavlink.MAVLink_message) -> tuple[str, ...]:
 
 
 def legacy_key(it: MissionItem) -> tuple[str, ...]:
-    """What ``legacy_msg_key`` gives for a stored item: x/y through the float32 of MISSION_ITEM."""
+    """What ``legacy_msg_key`` gives for a stored item: x/y through the float32 of MISSION_ITEM, and the
+    frame in its legacy name (GLOBAL_INT -> GLOBAL, GLOBAL_RELATIVE_ALT_INT -> GLOBAL_RELATIVE_ALT)."""
     k = _scale(it.frame)
     f32 = [struct.unpack("<f", struct.pack("<f", v / k))[0] for v in (it.x, it.y)]
-    return MissionItem(it.frame, it.command, it.param1, it.param2, it.param3, it.param4, round(f32[0] * k),
+    legacy = {mavlink.MAV_FRAME_GLOBAL_INT: mavlink.MAV_FRAME_GLOBAL,
+              mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT}  # fmt: skip
+    frame = legacy.get(it.frame, it.frame)
+    return MissionItem(frame, it.command, it.param1, it.param2, it.param3, it.param4, round(f32[0] * k),
                        round(f32[1] * k), it.z, it.autocontinue).key()  # fmt: skip
 
 
