@@ -10,7 +10,8 @@ the speed over ground now, the state, the cross-track and depth errors. It ends 
 - the vehicle stops flying on its own: ABORT, HOLD (a goal missed after its tries, the link lost, a new
   mission from another station), or IDLE / ARMED: exit 1 with the vehicle's reason (its STATUSTEXT);
 - no HEARTBEAT for :data:`LINK_LOST_S`: exit 2;
-- Ctrl-C: HOLD is sent, and what the vehicle answered is said; exit 130.
+- Ctrl-C: from the START on, HOLD is sent and what the vehicle answered is said (before it nothing runs);
+  exit 130.
 
 The session sends GCS heartbeats all along (the vehicle's link watch is satisfied while it runs).
 """
