@@ -45,13 +45,14 @@ from groundstation.mavclient import (
 
 EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 EXIT_STATUS = """exit status:
-  0    accepted / done
-  1    refused by the vehicle: MAV_RESULT_DENIED, _FAILED, _UNSUPPORTED, or a MAV_MISSION_* error
+  0    accepted / done (fly: COMPLETE)
+  1    refused by the vehicle: MAV_RESULT_DENIED, _FAILED, _UNSUPPORTED, or a MAV_MISSION_* error;
+       fly: also the vehicle stopped short of COMPLETE (ABORT, HOLD, disarmed)
        (the vehicle's reason is printed, and is the "reason" of --json)
-  2    usage, file or link error (no heartbeat, no answer)
+  2    usage, file or link error (no heartbeat, no answer; logs: no such log on the vehicle)
   3    temporarily rejected: MAV_RESULT_TEMPORARILY_REJECTED (valid, but not now, e.g. the navigation
-       is not valid yet: try again later), or wait-ready timed out
-  130  interrupted"""
+       is not valid yet: try again later), or wait-ready / fly not ready in time
+  130  interrupted (fly: HOLD sent if the mission had been started)"""
 FORCE_DISARM_MAGIC = 21196.0  # MAV_CMD_COMPONENT_ARM_DISARM param2: disarm even while running
 
 COMMANDS: dict[str, tuple[int, str]] = {
