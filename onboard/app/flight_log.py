@@ -55,12 +55,13 @@ from onboard.adapters.mavlink.api import MISSION_STATES, Request, VehicleSnapsho
 from onboard.core.commands import Note, Verdict
 from onboard.core.mission.model import Goal, Obstacle
 from onboard.core.mission.state import MissionState
+from onboard.core.planner.path import POINT_STEP_M, sample_evenly
 from onboard.core.planner.path import Path as PlannedPath
 
 log = logging.getLogger(__name__)
 
 #: The spacing of the path samples in /path (m of arc length; the last gap may be shorter: both ends kept).
-PATH_STEP_M = 0.5
+PATH_STEP_M = POINT_STEP_M
 #: A file name of the log: the UTC start time, then ``-N`` when that second already had a file.
 #: Ticks the writer may lag behind before the loop drops them (about 100 s at 20 Hz).
 QUEUE_TICKS = 2048
@@ -141,11 +142,8 @@ def telemetry_message(snapshot: VehicleSnapshot) -> dict[str, Any]:
 def sample_path(
     path: PlannedPath, step_m: float = PATH_STEP_M
 ) -> tuple[list[float], list[float], list[float]]:
-    """(x_m, y_m, depth_m) of ``path`` every ``step_m`` of arc length (evenly, at most ``step_m`` apart),
-    both ends included; one point for a path of zero length."""
-    length = path.length_m
-    n = math.ceil(length / step_m - 1e-9) if length > 0.0 else 0
-    points = [path.sample(length * i / n if n else 0.0) for i in range(n + 1)]
+    """(x_m, y_m, depth_m) of ``path`` every ``step_m`` of arc length or closer (``sample_evenly``)."""
+    points = sample_evenly(path, step_m)
     return [p.x_m for p in points], [p.y_m for p in points], [p.depth_m for p in points]
 
 

@@ -5,7 +5,7 @@ is served (:class:`FileTree`):
 
 - ``@PATH/planned.json``: the path the autopilot flies now, made from the telemetry snapshot when it is
   opened: ``{"version", "kind" ("goal" | "loiter" | ""), "goal_index", "frame": "local_ned",
-  "length_m", "points_m": [[x_m, y_m, depth_m], ...]}`` sampled every :data:`PATH_STEP_M` (and at the end).
+  "length_m", "points_m": [[x_m, y_m, depth_m], ...]}`` every 0.5 m or closer (``sample_evenly``).
   ``version`` counts the paths the link has seen (a new plan is a new number); no path: ``points_m`` [].
   ``@`` marks a virtual file, as in ArduPilot (``@PARAM``, ``@SYS``).
 - ``logs/``: the flight logs in the state directory's ``logs`` folder (``*.mcap``), read as they are on disk
@@ -70,6 +70,7 @@ from onboard.adapters.log_files import log_files
 from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.adapters.mavlink.peers import Sender
 from onboard.adapters.mavlink.transport import Transport, addressed_to
+from onboard.core.planner.path import sample_evenly
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +78,6 @@ MAX_SESSIONS = 4
 SESSION_IDLE_S = 5.0  # a session with no request for this long is closed (its reader is gone)
 BURST_PACKETS = 64  # data packets per BurstReadFile request (15 kB); the reader asks again for the rest
 TX_PACKETS_PER_S = 2000.0  # every station's FTP replies together (500 kB/s): a burst beyond it is cut short
-PATH_STEP_M = 0.5
 PATH_FILE = "@PATH/planned.json"
 LOG_DIR = "logs"
 
@@ -89,11 +89,7 @@ def path_document(snapshot: VehicleSnapshot, version: int) -> bytes:
     length_m = 0.0
     if p is not None:
         length_m = p.length_m
-        stations = [i * PATH_STEP_M for i in range(int(length_m // PATH_STEP_M) + 1)]
-        if stations[-1] < length_m:
-            stations.append(length_m)
-        for s_m in stations:
-            sample = p.sample(s_m)
+        for sample in sample_evenly(p):
             points.append([round(sample.x_m, 3), round(sample.y_m, 3), round(sample.depth_m, 3)])
     doc = {
         "version": version,

@@ -179,3 +179,15 @@ class Path:
         """(x_m, y_m, yaw_rad) at the end of the path."""
         p = self._end
         return (p.x_m, p.y_m, p.yaw_rad)
+
+
+#: The spacing of a path drawn or logged as points (the flight log, the vehicle's path file).
+POINT_STEP_M = 0.5
+
+
+def sample_evenly(path: Path, step_m: float = POINT_STEP_M) -> list[PathSample]:
+    """The path every ``step_m`` of arc length or closer (evenly spaced), both ends included; one sample
+    for a path of zero length."""
+    length = path.length_m
+    n = math.ceil(length / step_m - 1e-9) if length > 0.0 else 0
+    return [path.sample(length * i / n if n else 0.0) for i in range(n + 1)]
