@@ -782,6 +782,17 @@ class MavClient:
             raise LinkError(f"{path}: read {len(out)} of {size} bytes")
         return bytes(out)
 
+    def file_crc32(self, path: str, on_other: Callable[[Msg], None] | None = None) -> int | None:
+        """CalcFileCRC32 of a vehicle file over MAVLink FTP (zlib's CRC-32 of its bytes); None when the
+        vehicle cannot compute one. Raises LinkError for a missing file or no answer."""
+        r = self._ftp(ftp.CRC32, data=path.encode(), on_other=on_other)
+        if r.opcode == ftp.NAK:
+            code = r.data[0] if r.data else 0
+            if code == ftp.FILE_NOT_FOUND:
+                raise LinkError(f"no such file on the vehicle: {path}")
+            return None
+        return int(struct.unpack("<I", r.data[:4])[0]) if len(r.data) >= 4 else None
+
     def list_dir(
         self, path: str, on_other: Callable[[Msg], None] | None = None
     ) -> list[tuple[str, str, int]]:

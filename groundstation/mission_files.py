@@ -40,7 +40,8 @@ the global frames lat, lon in degrees and z = altitude (m, up positive: depth = 
 the vehicle's origin in ``MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT)`` (QGC's is relative to its planned home:
 the same with the home at the origin's surface), above mean sea level in ``MAV_FRAME_GLOBAL(_INT)``).
 So a QGC waypoint 2 m under the surface has altitude -2 in QGC's default relative frame (as ArduSub's).
-No file converts between frames (the ground station does not know the origin). A local-frame plan is valid
+No file converts between frames (a file does not know the vehicle's origin; the map, which hears it,
+draws global items in metres with :func:`local_ned`, the vehicle's projection). A local-frame plan is valid
 JSON QGC opens, but QGC draws its metres as degrees: plan in a global frame to edit in QGC. A local-frame
 obstacle has no QGC circle (a circle is lat/lon only), so :func:`to_plan` writes it as a ``SimpleItem``.
 
@@ -60,6 +61,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +73,8 @@ from groundstation.mavclient import Item
 
 LOCAL_SCALE = 1e4
 GLOBAL_SCALE = 1e7
+#: The flat-earth radius of the vehicle's projection (onboard ``mission_protocol.EARTH_RADIUS_M``), m.
+EARTH_RADIUS_M = 6_378_137.0
 INT32_MAX = 2**31 - 1
 FENCE_COMMANDS = range(5000, 5005)
 LOCAL_FRAMES = (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_ENU, mavlink.MAV_FRAME_LOCAL_OFFSET_NED)
@@ -93,6 +97,10 @@ class MissionFileError(ValueError):
     """A mission file that cannot be read; the message names the file and the place."""
 
 
+#: Why a file of lists in lists in lists ... (past Python's recursion limit) is not read.
+NESTED_TOO_DEEP = "nested too deep (lists or objects inside each other past what the reader follows)"
+
+
 def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None) -> Item:
     return Item(
         frame=mavlink.MAV_FRAME_LOCAL_NED,
@@ -113,6 +121,39 @@ def local_xy_m(item: Item) -> tuple[float, float] | None:
     if item.frame != mavlink.MAV_FRAME_LOCAL_NED:
         return None
     return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE
+
+
+@dataclass(frozen=True)
+class Origin:
+    """The vehicle's geodetic origin of its local NED frame (GPS_GLOBAL_ORIGIN): degrees, metres AMSL."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+
+
+def global_to_local(lat_deg: float, lon_deg: float, origin: Origin) -> tuple[float, float]:
+    """(x north, y east) in metres of a position (degrees) about ``origin``: the vehicle's flat-earth
+    projection (onboard ``mission_protocol.item_position``): x = radians(dlat) * R, y = radians(dlon) * R *
+    cos(origin latitude), R = :data:`EARTH_RADIUS_M`, dlon wrapped into [-180, 180)."""
+    dlon_deg = (lon_deg - origin.lon_deg + 180.0) % 360.0 - 180.0
+    x_m = math.radians(lat_deg - origin.lat_deg) * EARTH_RADIUS_M
+    y_m = math.radians(dlon_deg) * EARTH_RADIUS_M * math.cos(math.radians(origin.lat_deg))
+    return x_m, y_m
+
+
+def local_ned(item: Item, origin: Origin | None) -> tuple[float, float, float] | None:
+    """(x_m north, y_m east, depth_m) of an item as the vehicle reads it (module docstring): local NED as it
+    is; a global frame projected about ``origin`` (:func:`global_to_local`), depth = -altitude in the
+    relative frames, origin altitude - altitude in the AMSL ones. None for a global item without an
+    origin, or another frame."""
+    if item.frame == mavlink.MAV_FRAME_LOCAL_NED:
+        return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE, item.z
+    if item.frame not in GLOBAL_FRAMES or origin is None:
+        return None
+    x_m, y_m = global_to_local(item.x / GLOBAL_SCALE, item.y / GLOBAL_SCALE, origin)
+    depth_m = -(item.z - origin.alt_m) if item.frame in AMSL_FRAMES else -item.z
+    return x_m, y_m, depth_m
 
 
 def obstacle_item(x_m: float, y_m: float, radius_m: float) -> Item:
@@ -147,6 +188,8 @@ def load_yaml(path: Path) -> tuple[list[Item], list[Item]]:
         raise MissionFileError(f"{path}: {exc}") from None
     except yaml.YAMLError as exc:
         raise MissionFileError(f"{path}: not valid YAML ({yaml_error_line(exc)})") from None
+    except RecursionError:
+        raise MissionFileError(f"{path}: {NESTED_TOO_DEEP}") from None
     if not isinstance(data, dict):
         raise MissionFileError(f"{path}: expected a mapping with 'goals' and/or 'obstacles'")
     unknown = set(data) - {"goals", "obstacles"}
@@ -271,11 +314,12 @@ def load_wpl(path: Path) -> tuple[list[Item], list[Item]]:
             autocontinue = int(f[11])
         except ValueError:
             raise MissionFileError(f"{path}:{n}: bad number") from None
-        scale = LOCAL_SCALE if frame in LOCAL_FRAMES else GLOBAL_SCALE
-        try:
-            item = Item(frame, command, p1, p2, p3, p4, round(x * scale), round(y * scale), z, autocontinue)
-        except (ValueError, OverflowError):
-            raise MissionFileError(f"{path}:{n}: x and y must be numbers") from None
+        local = frame in LOCAL_FRAMES
+        scale = LOCAL_SCALE if local else GLOBAL_SCALE
+        place = f"{path}:{n}"
+        xi = _scaled(place, x, scale, "x" if local else "x (latitude)")
+        yi = _scaled(place, y, scale, "y" if local else "y (longitude)")
+        item = Item(frame, command, p1, p2, p3, p4, xi, yi, z, autocontinue)
         if seq == 0 and current == 1 and frame == mavlink.MAV_FRAME_GLOBAL:
             home = item  # the home line: not a goal
             continue
@@ -336,13 +380,14 @@ def _name(enum: str, value: int) -> str:
     return f"{value} ({entry.name})" if entry is not None else f"{value} (unknown)"
 
 
-def _scaled(path: Path, value: float, scale: float, where: str) -> int:
-    """A MISSION_ITEM_INT x or y from a file's float (metres or degrees), which must fit an int32."""
+def _scaled(place: str, value: float, scale: float, what: str) -> int:
+    """A MISSION_ITEM_INT x or y from a file's float (metres or degrees), which must fit an int32: the one
+    check of every reader (``place`` names the file and the place in it, ``what`` the number)."""
     if not math.isfinite(value):
-        raise MissionFileError(f"{path}: {where} must be a number, got {_short(value)}")
+        raise MissionFileError(f"{place}: {what} must be a number, got {_short(value)}")
     scaled = round(value * scale)
     if not -INT32_MAX - 1 <= scaled <= INT32_MAX:
-        raise MissionFileError(f"{path}: {where} = {value!r} does not fit MISSION_ITEM_INT")
+        raise MissionFileError(f"{place}: {what} = {value!r} does not fit MISSION_ITEM_INT")
     return scaled
 
 
@@ -375,8 +420,8 @@ def _simple_item(path: Path, d: dict[str, Any], where: str) -> Item:
         )
     scale = LOCAL_SCALE if frame == mavlink.MAV_FRAME_LOCAL_NED else GLOBAL_SCALE
     x_name, y_name = ("x", "y") if scale == LOCAL_SCALE else ("latitude", "longitude")
-    x = _scaled(path, values[4], scale, f"{where}: params[4] ({x_name})")
-    y = _scaled(path, values[5], scale, f"{where}: params[5] ({y_name})")
+    x = _scaled(f"{path}: {where}", values[4], scale, f"params[4] ({x_name})")
+    y = _scaled(f"{path}: {where}", values[5], scale, f"params[5] ({y_name})")
     p1, p2, p3, p4 = values[:4]
     return Item(frame, command, p1, p2, p3, p4, x, y, values[6], int(autocontinue))
 
@@ -453,6 +498,8 @@ def _parse_json(path: Path, text: str) -> Any:
         ) from None
     except ValueError as exc:
         raise MissionFileError(f"{path}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise MissionFileError(f"{path}: not valid JSON ({NESTED_TOO_DEEP})") from None
 
 
 def _load_plan_data(path: Path, data: Any) -> tuple[list[Item], list[Item]]:
@@ -501,6 +548,8 @@ def load(path: str | Path) -> tuple[list[Item], list[Item]]:
             data = json.loads(text, parse_constant=_json_constant)
         except ValueError:
             data = None  # not JSON: a YAML flow mapping, say
+        except RecursionError:
+            raise MissionFileError(f"{p}: {NESTED_TOO_DEEP}") from None
         if isinstance(data, dict) and "fileType" in data:
             return _load_plan_data(p, data)
     return load_yaml(p)

@@ -12,6 +12,9 @@
   the state changes of the vehicle's HEARTBEAT.
 
 Anything else raises ``ValueError`` with the reason (the CLI prints it on one line, exit 2): no empty picture.
+A flight log of another program or a damaged one: a message that is no JSON object is skipped (counted); a
+/mission or /path message that is an object but not of that shape (a key missing, a goal that is no object,
+a position that is no number) is a ``ValueError`` naming the message and what is wrong.
 """
 
 from __future__ import annotations
@@ -168,6 +171,7 @@ class FlightLogData:
     events: list[dict[str, Any]] = field(default_factory=list)
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     complete: bool = False  # the footer was read: the log was closed
+    skipped: int = 0  # messages of these topics that are no JSON object (another program's, or damaged)
 
 
 def read_flight_log(path: str | Path) -> FlightLogData:
@@ -197,7 +201,11 @@ def read_flight_log(path: str | Path) -> FlightLogData:
                 elif isinstance(record, Message):
                     target = by_topic.get(topics.get(record.channel_id, ""))
                     if target is not None:
-                        target.append({"log_time": record.log_time, **json.loads(record.data)})
+                        message = _json_object(record.data)
+                        if message is None:
+                            data.skipped += 1
+                        else:
+                            target.append({"log_time": record.log_time, **message})
                 elif isinstance(record, Metadata):
                     data.metadata[record.name] = dict(record.metadata)
                 elif isinstance(record, Footer):
@@ -212,8 +220,100 @@ def read_flight_log(path: str | Path) -> FlightLogData:
     return data
 
 
+def _json_object(raw: bytes) -> dict[str, Any] | None:
+    """A message's JSON object; None for one that is not (no JSON, another type, nested too deep)."""
+    try:
+        message = json.loads(raw)
+    except (ValueError, RecursionError):  # (UnicodeDecodeError is a ValueError)
+        return None
+    return message if isinstance(message, dict) else None
+
+
 def _num(value: Any) -> float:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else math.nan
+
+
+def _short(value: Any) -> str:
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError, RecursionError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _finite(d: dict[str, Any], key: str, what: str) -> float:
+    """``d[key]``, a finite number (``what`` names ``d`` in the message: a KeyError when it is missing, a
+    ValueError when it is something else)."""
+    if key not in d:
+        raise KeyError(f"{what}.{key}")
+    value = d[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{what}.{key} must be a number, got {_short(value)}")
+    return float(value)
+
+
+def _array(d: dict[str, Any], key: str) -> list[Any]:
+    """``d[key]``, a JSON array (absent or null: empty)."""
+    value = d.get(key)
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise TypeError(f"{key} must be an array, got {_short(value)}")
+    return value
+
+
+def _object(value: Any, what: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise TypeError(f"{what} must be an object, got {_short(value)}")
+    return value
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """A /mission message, decoded for drawing: goals (x_m, y_m, arrival yaw_rad or None: free) and
+    obstacles (x_m, y_m, radius_m), local NED metres."""
+
+    goals: list[tuple[float, float, float | None]]
+    obstacles: list[tuple[float, float, float]]
+
+
+def _decode_mission(m: dict[str, Any]) -> _Plan:
+    goals = []
+    for i, raw in enumerate(_array(m, "goals")):
+        where = f"goals[{i}]"
+        g = _object(raw, where)
+        yaw_rad = _num(g.get("yaw_rad"))  # null / absent: free (no arrow)
+        x_m, y_m = _finite(g, "x_m", where), _finite(g, "y_m", where)
+        goals.append((x_m, y_m, yaw_rad if math.isfinite(yaw_rad) else None))
+    obstacles = []
+    for i, raw in enumerate(_array(m, "obstacles")):
+        where = f"obstacles[{i}]"
+        o = _object(raw, where)
+        x, y, radius = (_finite(o, k, where) for k in ("x_m", "y_m", "radius_m"))
+        obstacles.append((x, y, radius))
+    return _Plan(goals, obstacles)
+
+
+def _decode_path(p: dict[str, Any]) -> tuple[list[float], list[float]]:
+    """A /path message's points (x_m north, y_m east), null (a NaN) a gap."""
+    xs, ys = _array(p, "x_m"), _array(p, "y_m")
+    if len(xs) != len(ys):
+        raise ValueError(f"x_m has {len(xs)} points, y_m {len(ys)}")
+    return [_num(v) for v in xs], [_num(v) for v in ys]
+
+
+def _decoded(path: str | Path, topic: str, messages: list[dict[str, Any]], decode: Any) -> list[Any]:
+    """``decode`` of every message of ``topic``; a message it cannot decode (KeyError, TypeError,
+    ValueError) is a ValueError naming the file, the message and the reason."""
+    out = []
+    for i, m in enumerate(messages):
+        try:
+            out.append(decode(m))
+        except KeyError as exc:
+            raise ValueError(f"{path}: {topic} message {i}: missing {exc.args[0]}") from None
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {topic} message {i}: {exc}") from None
+    return out
 
 
 def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
@@ -222,8 +322,9 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
     depth, cross-track, yaw error and propeller over time with the state changes as vertical lines.
 
     Returns counts: ticks, positions, paths, path_points, goals, obstacles (of the last mission), missions,
-    state_changes, notes, truncated (1: the log has no footer). Raises ValueError for a log with no
-    position in it: no empty picture."""
+    state_changes, notes, truncated (1: the log has no footer), skipped (messages that are no JSON object).
+    Raises ValueError for a log with no position in it, or a /mission or /path message it cannot decode (the
+    message and the reason): no empty picture."""
     log = read_flight_log(path)
     tel = log.telemetry
     if not tel:
@@ -241,6 +342,9 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
         if e.get("kind") == "state" and e.get("from_state")
     ]
     notes = [e for e in log.events if e.get("kind") == "note"]
+    paths: list[tuple[list[float], list[float]]] = _decoded(path, "/path", log.paths, _decode_path)
+    plans: list[_Plan] = _decoded(path, "/mission", log.missions, _decode_mission)
+    missions = [m for m in plans if m.goals or m.obstacles]
 
     plt = _pyplot()
     from matplotlib.patches import Circle
@@ -253,11 +357,11 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
 
     # the track, the planned paths, the mission
     path_points = 0
-    drawn_paths = [p for p in log.paths if p.get("x_m")]
-    for i, p in enumerate(drawn_paths):
+    drawn_paths = [xy for xy in paths if xy[0]]
+    for i, (px, py) in enumerate(drawn_paths):
         track.plot(
-            p["y_m"],
-            p["x_m"],
+            py,
+            px,
             "--",
             lw=0.8,
             color="k",
@@ -265,36 +369,32 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
             label="planned path" if i == 0 else None,
             zorder=4,  # over the track: where the vehicle left it shows
         )
-        path_points += len(p["x_m"])
+        path_points += len(px)
     track.plot(ys, xs, "-", lw=1.4, color="tab:blue", label="track", zorder=3)
     track.plot(*reversed(fixes[0]), "o", ms=8, mfc="none", mec="tab:green", mew=2, label="start", zorder=5)
     track.plot(*reversed(fixes[-1]), "s", ms=7, color="tab:red", label="end", zorder=5)
-    missions = [m for m in log.missions if m.get("goals") or m.get("obstacles")]
-    last = missions[-1] if missions else {"goals": [], "obstacles": []}
+    last = missions[-1] if missions else _Plan([], [])
     for m in missions[:-1]:  # earlier missions, faint
-        for g in m.get("goals", []):
-            track.plot(g["y_m"], g["x_m"], "x", color="0.7", zorder=3)
-    goals = last.get("goals", [])
-    for k, g in enumerate(goals):
-        track.plot(
-            g["y_m"], g["x_m"], "x", ms=9, mew=2, color="tab:orange", label="goals" if k == 0 else None
-        )
-        track.annotate(str(k), (g["y_m"], g["x_m"]), xytext=(5, 5), textcoords="offset points", fontsize=8)
-        yaw = g.get("yaw_rad")
-        if isinstance(yaw, int | float) and math.isfinite(yaw):
+        for gx, gy, _ in m.goals:
+            track.plot(gy, gx, "x", color="0.7", zorder=3)
+    goals = last.goals
+    for k, (gx, gy, yaw) in enumerate(goals):
+        track.plot(gy, gx, "x", ms=9, mew=2, color="tab:orange", label="goals" if k == 0 else None)
+        track.annotate(str(k), (gy, gx), xytext=(5, 5), textcoords="offset points", fontsize=8)
+        if yaw is not None:
             length = 2.0  # m on the map
             track.annotate(
                 "",
-                xy=(g["y_m"] + length * math.sin(yaw), g["x_m"] + length * math.cos(yaw)),
-                xytext=(g["y_m"], g["x_m"]),
+                xy=(gy + length * math.sin(yaw), gx + length * math.cos(yaw)),
+                xytext=(gy, gx),
                 arrowprops={"arrowstyle": "->", "color": "tab:orange", "lw": 1.5},
             )
-    obstacles = last.get("obstacles", [])
-    for k, o in enumerate(obstacles):
+    obstacles = last.obstacles
+    for k, (ox, oy, radius) in enumerate(obstacles):
         track.add_patch(
             Circle(
-                (o["y_m"], o["x_m"]),
-                o["radius_m"],
+                (oy, ox),
+                radius,
                 facecolor="tab:red",
                 edgecolor="tab:red",
                 alpha=0.25,
@@ -348,4 +448,5 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
         "state_changes": len(changes),
         "notes": len(notes),
         "truncated": 0 if log.complete else 1,
+        "skipped": log.skipped,
     }

@@ -1,14 +1,20 @@
 """``auv-gcs map``: the vehicle on a map in the browser, live or replayed from a tlog, served on 127.0.0.1.
 
 One aiohttp server on one port serves the page (``/``), its static files (``/static/``) and a websocket
-(``/ws``); nothing comes from elsewhere (no CDN, no map tiles).
+(``/ws``); nothing comes from elsewhere (no CDN, no map tiles). Every request must name the map in its Host
+header (``127.0.0.1:PORT`` or ``localhost:PORT``, PORT the one served: another site's name rebound to
+127.0.0.1 is refused, 403), and a websocket must come from the map's own origin (another site's page in the
+operator's browser is refused, 403).
 
 Live: one thread (:class:`LiveLink`) owns the :class:`~groundstation.mavclient.MavClient`: every message it
 receives, also during a download or a file read, goes through its ``on_message`` hook into the
-:class:`~groundstation.map.state.MapModel`; it downloads the mission and the fence at the start and whenever
-the model says they may have changed, and reads the vehicle's planned path file once a second. The server
-pushes the model's picture to every page at most 10 times a second (when something changed, else once a
-second).
+:class:`~groundstation.map.state.MapModel`; it asks the vehicle for its GPS_GLOBAL_ORIGIN at the start (the
+vehicle streams it too: global items are drawn about it), downloads the mission and the fence at the start
+and whenever the model says they may have changed, and once a second asks the CRC-32 of the vehicle's
+planned path file (MAVLink FTP CalcFileCRC32: a few bytes), reading the file only when it changed. The
+server pushes the model's picture to every page at most 10 times a second (when something changed, else
+once a second); a picture that cannot be sent to a page is logged and that page dropped (closed: it
+connects again), the others go on.
 
 Replay (``--tlog FILE``): the recording is turned into pictures at load (the same model); the page's slider
 and play button ask for the picture at a time (``{"type": "seek", "t_s": ...}``).
@@ -28,12 +34,13 @@ import socket
 import sys
 import threading
 import time
-from collections.abc import Callable
+import zlib
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from aiohttp import WSMsgType, web
+from aiohttp import WSCloseCode, WSMsgType, web
 from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.map import HOST
@@ -59,6 +66,8 @@ IDLE_PUSH_PERIOD_S = 1.0  # an update a second when nothing changed (the link's 
 PATH_PERIOD_S = 1.0
 RETRY_S = 2.0
 NO_READER_NOTE = "the planned path is not shown: this ground station cannot read the vehicle's files yet"
+#: The names the map answers to in a request's Host header (with the port it serves on).
+HOST_NAMES = ("127.0.0.1", "localhost")
 
 Done = Callable[[dict[str, Any], str], None]
 
@@ -120,6 +129,7 @@ class LiveLink:
         self.client, self.model, self.lock = client, model, lock
         self.path_period_s, self.retry_s = path_period_s, retry_s
         self._note = ""
+        self._path_crc: int | None = None  # CRC-32 of the path file as last read whole (None: read it)
 
     def _on_message(self, msg: Msg) -> None:
         with self.lock:
@@ -150,6 +160,7 @@ class LiveLink:
         with self.lock:
             self.model.vehicle = c.target
         log.info("vehicle %d/%d is there", *c.target)
+        self._request_origin()
         plans_due = path_due = 0.0
         while not stop.is_set():
             now = time.monotonic()
@@ -162,6 +173,17 @@ class LiveLink:
                 path_due = now + self.path_period_s
                 self._read_path()
             c.recv(0.1)
+
+    def _request_origin(self) -> None:
+        """Ask the vehicle for its GPS_GLOBAL_ORIGIN now (it streams it every few seconds too; the answer
+        comes in through the model like every message). Not waited for: the stream is the fallback."""
+        ts, tc = self.client.target
+        self.client.send(
+            mavlink.MAVLink_command_long_message(
+                ts, tc, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN,
+                0, 0, 0, 0, 0, 0,
+            )
+        )  # fmt: skip
 
     def _download(self) -> bool:
         try:
@@ -176,6 +198,8 @@ class LiveLink:
         return True
 
     def _read_path(self) -> None:
+        """The vehicle's planned path file into the model: its CRC-32 asked first, the file read only when
+        that differs from the CRC of the file last read whole (or the vehicle computes none)."""
         # (no on_other: the client's on_message hook already sees every message that comes during the read)
         reader = getattr(self.client, "read_file", None)
         path: dict[str, Any] | None = None
@@ -183,8 +207,15 @@ class LiveLink:
         if reader is None:
             note = NO_READER_NOTE
         else:
+            known, self._path_crc = self._path_crc, None  # kept only by a check or a read that succeeds
             try:
-                path = parse_planned(reader(PLANNED_PATH_FILE))
+                crc = file_crc32(self.client, PLANNED_PATH_FILE)
+                if crc is not None and crc == known:
+                    self._path_crc = known
+                    return  # the same file: the model has it
+                raw = reader(PLANNED_PATH_FILE)
+                path = parse_planned(raw)
+                self._path_crc = zlib.crc32(raw)
             except LinkError as exc:
                 note = f"no planned path: {exc}"
             except ValueError as exc:
@@ -194,6 +225,17 @@ class LiveLink:
             self._note = note
         with self.lock:
             self.model.set_path(path, note)
+
+
+def file_crc32(client: Any, path: str) -> int | None:
+    """CalcFileCRC32 of a vehicle file (:meth:`MavClient.file_crc32`), None when the client or the vehicle
+    cannot compute one (then the file is read every time). Raises :class:`LinkError` for a missing file
+    or no answer."""
+    own = getattr(client, "file_crc32", None)
+    if own is None:
+        return None
+    crc = own(path)
+    return None if crc is None else int(crc)
 
 
 @dataclass(eq=False)  # one per websocket, kept in a set by identity
@@ -216,12 +258,43 @@ async def _send(page: _Page, pic: Picture) -> None:
         await page.ws.send_str(_dumps(msg))
 
 
+Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+def _host_ok(request: web.Request) -> bool:
+    """True if the request's Host header is ``127.0.0.1:PORT`` or ``localhost:PORT``, PORT the one this
+    connection came in on (the port served)."""
+    sockname = request.transport.get_extra_info("sockname") if request.transport is not None else None
+    if not sockname:
+        return False
+    port = sockname[1]
+    return request.host in {f"{name}:{port}" for name in HOST_NAMES}
+
+
+@web.middleware
+async def _only_our_host(request: web.Request, handler: Handler) -> web.StreamResponse:
+    """DNS rebinding: another site's page whose name its DNS now gives as 127.0.0.1 is of the same origin
+    as that name, but its requests name it in the Host header: refused, on every route."""
+    if not _host_ok(request):
+        return web.Response(status=403, text="not the map's host name (127.0.0.1 or localhost)")
+    return await handler(request)
+
+
 def make_app(source: Source, *, live: bool) -> web.Application:
     """The page, its static files and the websocket; live: a task pushes pictures to every page."""
     pages: set[_Page] = set()
     tasks: list[asyncio.Task[None]] = []
-    app = web.Application()
+    closing: set[asyncio.Task[Any]] = set()
+    app = web.Application(middlewares=[_only_our_host])
     index = (STATIC_DIR / "index.html").read_bytes()
+
+    def drop(page: _Page, why: str) -> None:
+        """Send that page nothing more, and close its websocket (its page connects again) in the
+        background: a close waits for the page's answer, the other pages do not."""
+        pages.discard(page)
+        task = asyncio.ensure_future(page.ws.close(code=WSCloseCode.INTERNAL_ERROR, message=why.encode()))
+        closing.add(task)
+        task.add_done_callback(closing.discard)
 
     async def page_handler(_request: web.Request) -> web.Response:
         return web.Response(body=index, content_type="text/html", charset="utf-8")
@@ -240,7 +313,14 @@ def make_app(source: Source, *, live: bool) -> web.Application:
         pages.add(page)
         try:
             await ws.send_str(_dumps(source.hello()))
-            await _send(page, source.picture(None))
+            try:
+                await _send(page, source.picture(None))
+            except (ConnectionError, RuntimeError):
+                return ws
+            except Exception:  # as in the pusher: this page is not sent this picture, and connects again
+                log.exception("the map cannot send a picture to a page")
+                await ws.close(code=WSCloseCode.INTERNAL_ERROR, message=b"cannot send this picture")
+                return ws
             async for m in ws:
                 if m.type != WSMsgType.TEXT:
                     continue
@@ -268,7 +348,10 @@ def make_app(source: Source, *, live: bool) -> web.Application:
                 try:
                     await _send(page, pic)
                 except (ConnectionError, RuntimeError):
-                    pages.discard(page)
+                    pages.discard(page)  # gone
+                except Exception:  # this picture (a NaN, say): this page, not the map, stops
+                    log.exception("the map cannot send a picture to a page: that page is dropped")
+                    drop(page, "the ground station cannot send this picture")
 
     async def start_pusher(app: web.Application) -> None:
         if live:

@@ -1,15 +1,22 @@
 """The map's picture of the vehicle: MAVLink messages in, small JSON-able records out (no I/O, no clock).
 
 Frame: local NED metres (x north, y east, depth down), as the vehicle streams them; the page draws north up,
-east right. Angles: yaw in degrees clockwise from north (the page's unit), converted once here from the
-radians of ATTITUDE.
+east right. Items of the plans in a global frame are drawn once the vehicle's GPS_GLOBAL_ORIGIN came,
+projected as the vehicle does (:func:`groundstation.mission_files.local_ned`). Angles: yaw in degrees
+clockwise from north (the page's unit), converted once here from the radians of ATTITUDE. A number that is
+not finite is None (JSON has no NaN): the page does not draw a goal or obstacle without its position,
+depth or radius, and says so.
+
+Goals: MISSION_CURRENT.seq is a MAVLink seq, the goal index + 1 when the mission starts with a home
+placeholder (:func:`groundstation.mission_files.is_home_placeholder`, the vehicle's rule); the telemetry and
+each goal carry the goal ``index`` (0-based) the page shows, taken with the downloaded mission's offset.
 
 Inputs, the same live and in a tlog replay: ``(t_s, message)`` pairs (``t_s`` unix seconds: the arrival time
 live, the record's time in a tlog) for HEARTBEAT, LOCAL_POSITION_NED, ATTITUDE, NAV_CONTROLLER_OUTPUT,
-MISSION_CURRENT, SYS_STATUS and STATUSTEXT of the vehicle; the plans (mission type 0 goals, type 1 fence
-circles) as :class:`~groundstation.mavclient.Item` lists (a download live; in a tlog the transfers recorded in
-it, see :class:`PlanRecorder`); the vehicle's planned path file (:func:`parse_planned`; in a tlog the MAVLink
-FTP reads recorded in it, see :class:`FileReadRecorder`).
+MISSION_CURRENT, SYS_STATUS, STATUSTEXT and GPS_GLOBAL_ORIGIN of the vehicle; the plans (mission type 0
+goals, type 1 fence circles) as :class:`~groundstation.mavclient.Item` lists (a download live; in a tlog
+the transfers recorded in it, see :class:`PlanRecorder`); the vehicle's planned path file
+(:func:`parse_planned`; in a tlog the MAVLink FTP reads recorded in it, see :class:`FileReadRecorder`).
 
 Output: :meth:`MapModel.picture` — the telemetry record, the plans and the path with version numbers, and the
 track — and :func:`update_for`, the message one page needs given what it was sent before.
@@ -20,11 +27,10 @@ from __future__ import annotations
 import json
 import math
 import struct
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import yaml
 from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common import mavlink_ftp as ftp
@@ -79,39 +85,55 @@ def item_of(msg: Msg) -> Item:
     )  # fmt: skip
 
 
-def goals_of(items: Iterable[Item]) -> list[dict[str, Any]]:
-    """The goals of a mission plan: local NED waypoints as ``{seq, x_m, y_m, depth_m, yaw_deg}`` (yaw None
-    when the planner chooses it). The metres come from :func:`groundstation.mission_files.to_yaml`, the one
-    decoding of items; items in other frames or of other commands are not drawn."""
-    seqs, wanted = [], []
+def home_offset(items: Sequence[Item]) -> int:
+    """1 if the MISSION plan ``items`` starts with the vehicle's home placeholder (MAVLink seq = goal index
+    + 1), else 0 (:func:`groundstation.mission_files.is_home_placeholder`)."""
+    return 1 if mission_files.is_home_placeholder(items) else 0
+
+
+def _metres(value: float, digits: int) -> float | None:
+    v = finite(value)
+    return None if v is None else round(v, digits)
+
+
+def goals_of(items: Sequence[Item], origin: mission_files.Origin | None = None) -> list[dict[str, Any]]:
+    """The goals of a mission plan: the waypoints with a place in local NED (local ones; global ones about
+    ``origin``, :func:`groundstation.mission_files.local_ned`) as ``{seq, index, x_m, y_m, depth_m,
+    yaw_deg}``: ``seq`` the MAVLink seq, ``index`` the goal index (seq less :func:`home_offset`), yaw None
+    when the planner chooses it, a number that is not finite None. A home placeholder, items of other
+    commands and global items without an origin are not drawn."""
+    offset = home_offset(items)
+    out = []
     for seq, it in enumerate(items):
-        if it.frame == mavlink.MAV_FRAME_LOCAL_NED and it.command == mavlink.MAV_CMD_NAV_WAYPOINT:
-            seqs.append(seq)
-            wanted.append(it)
-    decoded = yaml.safe_load(mission_files.to_yaml(wanted, []))["goals"] if wanted else []
-    return [
-        {
-            "seq": seq,
-            "x_m": float(g["x_m"]),
-            "y_m": float(g["y_m"]),
-            "depth_m": float(g["depth_m"]),
-            "yaw_deg": None if g["yaw_deg"] is None else float(g["yaw_deg"]),
-        }
-        for seq, g in zip(seqs, decoded, strict=True)
-    ]
+        if seq < offset or it.command != mavlink.MAV_CMD_NAV_WAYPOINT:
+            continue
+        where = mission_files.local_ned(it, origin)
+        if where is None:
+            continue
+        x_m, y_m, depth_m = where
+        out.append(
+            {
+                "seq": seq,
+                "index": seq - offset,
+                "x_m": _metres(x_m, 4),
+                "y_m": _metres(y_m, 4),
+                "depth_m": _metres(depth_m, 6),
+                "yaw_deg": _metres(it.param4, 6),
+            }
+        )
+    return out
 
 
-def obstacles_of(items: Iterable[Item]) -> list[dict[str, Any]]:
-    """The fence plan's exclusion circles (local NED) as ``{x_m, y_m, radius_m}``, decoded by
-    :func:`groundstation.mission_files.to_yaml`; other fence items are not drawn."""
-    wanted = [
-        it
-        for it in items
-        if it.command == mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
-        and it.frame == mavlink.MAV_FRAME_LOCAL_NED
-    ]
-    decoded = yaml.safe_load(mission_files.to_yaml([], wanted))["obstacles"] if wanted else []
-    return [{k: float(o[k]) for k in ("x_m", "y_m", "radius_m")} for o in decoded]
+def obstacles_of(items: Iterable[Item], origin: mission_files.Origin | None = None) -> list[dict[str, Any]]:
+    """The fence plan's exclusion circles with a place in local NED (as :func:`goals_of`) as ``{x_m, y_m,
+    radius_m}``, a number that is not finite None; other fence items are not drawn."""
+    out = []
+    for it in items:
+        where = mission_files.local_ned(it, origin)
+        if it.command != mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION or where is None:
+            continue
+        out.append({"x_m": _metres(where[0], 4), "y_m": _metres(where[1], 4), "radius_m": finite(it.param1)})
+    return out
 
 
 def parse_planned(raw: bytes) -> dict[str, Any]:
@@ -326,12 +348,12 @@ class MapModel:
         self._assembler = StatusTextAssembler()
         self._recorder = PlanRecorder()
         self._files = FileReadRecorder()
-        self._plan: dict[str, Any] = {
-            "goals": [],
-            "obstacles": [],
-            "goals_not_drawn": 0,
-            "fence_not_drawn": 0,
+        self._items: dict[int, list[Item]] = {
+            mavlink.MAV_MISSION_TYPE_MISSION: [],
+            mavlink.MAV_MISSION_TYPE_FENCE: [],
         }
+        self._origin: mission_files.Origin | None = None
+        self._plan: dict[str, Any] = _plan_of(self._items, None)
         self._path: dict[str, Any] | None = None
         self._refresh = False
 
@@ -378,6 +400,11 @@ class MapModel:
                 self._refresh = True
             self._fence_present = present
             self._load = int(msg.load) / 1000.0
+        elif kind == "GPS_GLOBAL_ORIGIN":
+            origin = mission_files.Origin(msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
+            if origin != self._origin:
+                self._origin = origin
+                self._draw_plans()
         elif kind == "STATUSTEXT":
             done = self._assembler.feed(msg, t_s)
             for text in [*([done] if done is not None else []), *self._assembler.flush(t_s)]:
@@ -402,14 +429,13 @@ class MapModel:
 
     def set_plan(self, mission_type: int, items: list[Item]) -> None:
         """The vehicle's plan of ``mission_type`` (0 mission: goals, 1 fence: obstacles) is ``items``."""
-        if mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
-            drawn: list[dict[str, Any]] = goals_of(items)
-            plan = {**self._plan, "goals": drawn, "goals_not_drawn": len(items) - len(drawn)}
-        elif mission_type == mavlink.MAV_MISSION_TYPE_FENCE:
-            drawn = obstacles_of(items)
-            plan = {**self._plan, "obstacles": drawn, "fence_not_drawn": len(items) - len(drawn)}
-        else:
+        if mission_type not in self._items:
             return
+        self._items[mission_type] = list(items)
+        self._draw_plans()
+
+    def _draw_plans(self) -> None:
+        plan = _plan_of(self._items, self._origin)
         if plan != self._plan:
             self._plan = plan
             self.plan_version += 1
@@ -478,8 +504,10 @@ class MapModel:
             }
         goal = None
         if mc is not None:
+            offset = home_offset(self._items[mavlink.MAV_MISSION_TYPE_MISSION])
             goal = {
                 "seq": int(mc.seq),
+                "index": max(int(mc.seq) - offset, 0),  # the home's seq 0: the vehicle flies goal 0
                 "total": int(mc.total),
                 "mission_state": MISSION_STATE_NAMES.get(int(mc.mission_state), str(mc.mission_state)),
             }
@@ -503,6 +531,23 @@ class MapModel:
             "texts": [{"severity": t.severity, "text": t.text, "t_s": t.t_s} for t in self._texts],
             "note": self.note,
         }
+
+
+def _plan_of(items: dict[int, list[Item]], origin: mission_files.Origin | None) -> dict[str, Any]:
+    """The plans as the page gets them: goals and obstacles drawn (:func:`goals_of`, :func:`obstacles_of`),
+    how many items of each plan are not (a home placeholder is no goal), the origin (None: not known yet,
+    global items are not drawn)."""
+    mission, fence = items[mavlink.MAV_MISSION_TYPE_MISSION], items[mavlink.MAV_MISSION_TYPE_FENCE]
+    goals, obstacles = goals_of(mission, origin), obstacles_of(fence, origin)
+    return {
+        "goals": goals,
+        "obstacles": obstacles,
+        "goals_not_drawn": len(mission) - home_offset(mission) - len(goals),
+        "fence_not_drawn": len(fence) - len(obstacles),
+        "origin": None
+        if origin is None
+        else {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg, "alt_m": origin.alt_m},
+    }
 
 
 def _rounded(value: float, digits: int = 3) -> float | None:

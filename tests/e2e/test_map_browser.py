@@ -7,6 +7,9 @@
 - replay: `auv-gcs map --tlog` of that flight's tlog: the slider and the play button move the marker;
 - the planned path: drawn from the vehicle's path file, through the real link thread, server and page with
   a scripted client (and, once `MavClient.read_file` exists, in the live flight too);
+- a plan as QGC uploads it (a home placeholder, global waypoints) with a scripted client: drawn about the
+  vehicle's GPS_GLOBAL_ORIGIN, "goal 1 of 2" while the vehicle flies goal 1 (MISSION_CURRENT.seq 1);
+- no update for 3 s (the server pushes none): the link badge says so;
 - a port already in use is one line, exit 2.
 
 Chromium and chromedriver are Debian's (/usr/bin; `make venv` installs them): missing, the tests fail (no
@@ -41,8 +44,8 @@ from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
 
 from groundstation.map.server import LiveLink, LiveSource, make_app
 from groundstation.map.state import PLANNED_PATH_FILE, MapModel
-from groundstation.mavclient import LinkError, MavClient
-from groundstation.mission_files import goal_item, obstacle_item
+from groundstation.mavclient import Item, LinkError, MavClient
+from groundstation.mission_files import goal_item, home_item, obstacle_item
 from groundstation.tlog import read_tlog
 from hil_sim.scenario import free_port, free_udp_port, run_gcs
 from tests.e2e.procs import bench_cmd, onboard_cmd, processes
@@ -145,8 +148,9 @@ def marker(driver: Any) -> Marker | None:
 def goals_drawn(driver: Any) -> list[dict[str, Any]]:
     return driver.execute_script(
         """return [...document.querySelectorAll('#goals .goal')].map(g => ({
-            seq: +g.dataset.seq, x: +g.dataset.xM, y: +g.dataset.yM, yaw: g.dataset.yawDeg,
-            arrow: g.querySelector('.arrow') !== null}));"""
+            seq: +g.dataset.seq, index: +g.dataset.index, x: +g.dataset.xM, y: +g.dataset.yM,
+            yaw: g.dataset.yawDeg, arrow: g.querySelector('.arrow') !== null,
+            label: g.querySelector('text').textContent, current: g.classList.contains('current')}));"""
     )
 
 
@@ -362,17 +366,33 @@ def _wire(msg: Any, src: tuple[int, int] = (1, 1)) -> Any:
 
 class ScriptedClient:
     """The part of :class:`MavClient` the map uses, scripted: a vehicle flying north at 1 m/s from the
-    origin, a goal and an obstacle, and a path file that answers until ``path_gone`` is set."""
+    origin, a goal and an obstacle (or ``mission``, MISSION_CURRENT ``current`` (seq, total)), a path file
+    that answers until ``path_gone`` is set, and GPS_GLOBAL_ORIGIN ``origin`` (lat degE7, lon degE7, alt mm)
+    sent when asked for (MAV_CMD_REQUEST_MESSAGE)."""
 
     PATH: ClassVar[dict[str, Any]] = {"version": 1, "kind": "goal", "goal_index": 0, "frame": "local_ned",
             "points_m": [[0.0, 0.0, 1.0], [5.0, 1.0, 1.0], [10.0, 0.0, 1.0], [20.0, 0.0, 1.0]]}  # fmt: skip
 
-    def __init__(self) -> None:
+    def __init__(
+        self,
+        mission: list[Item] | None = None,
+        current: tuple[int, int] = (0, 1),
+        origin: tuple[int, int, int] = (351_000_000, 1_290_400_000, 0),
+    ) -> None:
         self.target = (1, 1)
         self.on_message: Callable[[Any], None] | None = None
         self.t0 = time.monotonic()
         self.path_gone = threading.Event()
         self.reads = 0
+        self.mission = mission if mission is not None else [goal_item(20.0, 0.0, 1.0, None)]
+        self.current, self.origin = current, origin
+        self._answers: list[Any] = []
+        self.reported = threading.Event()  # its first messages went to the map
+
+    def send(self, msg: Any) -> None:
+        if msg.get_type() == "COMMAND_LONG" and msg.command == mavlink.MAV_CMD_REQUEST_MESSAGE:
+            if int(msg.param1) == mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN:
+                self._answers.append(_wire(mavlink.MAVLink_gps_global_origin_message(*self.origin, 0)))
 
     def _heartbeat(self) -> Any:
         return _wire(
@@ -391,16 +411,20 @@ class ScriptedClient:
             self._heartbeat(),
             _wire(mavlink.MAVLink_local_position_ned_message(int(t * 1000), t, 0.0, 1.0, 1.0, 0.0, 0.0)),
             _wire(mavlink.MAVLink_attitude_message(int(t * 1000), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)),
-            _wire(mavlink.MAVLink_mission_current_message(0, 1, mavlink.MISSION_STATE_ACTIVE, 1)),
+            _wire(mavlink.MAVLink_mission_current_message(*self.current, mavlink.MISSION_STATE_ACTIVE, 1)),
+            *self._answers,
         ]
+        self._answers = []
         for m in msgs:
             if self.on_message is not None:
                 self.on_message(m)
+        if self.on_message is not None:
+            self.reported.set()
         return msgs[-1]
 
     def download(self, mission_type: int) -> list[Any]:
         if mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
-            return [goal_item(20.0, 0.0, 1.0, None)]
+            return list(self.mission)
         return [obstacle_item(8.0, 6.0, 2.5)]
 
     def read_file(self, path: str, on_other: Callable[[Any], None] | None = None) -> bytes:
@@ -412,11 +436,12 @@ class ScriptedClient:
 
 
 @contextlib.contextmanager
-def serving(client: ScriptedClient) -> Iterator[str]:
-    """The real link thread, model, server and page in this process, on a free port; its URL."""
+def serving(client: ScriptedClient, *, push: bool = True) -> Iterator[str]:
+    """The real link thread, model, server and page in this process, on a free port; its URL. ``push``
+    False: the server sends a page its first picture only (as if its pusher had stopped)."""
     model, lock, stop = MapModel(), threading.Lock(), threading.Event()
     link = LiveLink(client, model, lock, path_period_s=0.2)  # type: ignore[arg-type]
-    app = make_app(LiveSource(model, lock, "scripted"), live=True)
+    app = make_app(LiveSource(model, lock, "scripted"), live=push)
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
     sock.listen()
@@ -474,6 +499,46 @@ def test_the_planned_path_is_drawn_and_removed(browser: Any) -> None:
         # THEN the path is gone and the page says why
         wait_for(lambda: path.get_attribute("data-points") == "0", 5.0, "the planned path removed")
         assert "no such file" in text_of(browser, "note")
+        assert console_errors(browser) == []
+
+
+def test_a_qgc_plan_is_drawn_about_the_origin_and_numbered_from_its_first_goal(browser: Any) -> None:
+    # GIVEN the vehicle's plan as QGC uploads it: the home placeholder, then a waypoint 0.0001 deg (11.13 m)
+    # north of the origin 2 m down (relative altitude -2), then a local goal; the vehicle flies the first
+    # goal: MISSION_CURRENT seq 1 (the home is seq 0), total 2
+    waypoint = Item(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_WAYPOINT, 0.0, 0.0, 0.0,
+                    math.nan, 351_001_000, 1_290_400_000, -2.0)  # fmt: skip
+    mission = [home_item(35.1, 129.04, 0.0), waypoint, goal_item(20.0, 5.0, 1.0, None)]
+    client = ScriptedClient(mission=mission, current=(1, 2))
+    with serving(client) as url:
+        # WHEN the page is opened
+        open_map(browser, url)
+        # THEN it says the vehicle flies goal 1 of 2 (not 2 of 2: the home is no goal)
+        wait_for(lambda: text_of(browser, "goal") == "goal 1 of 2", 5.0, "goal 1 of 2")
+        # AND both goals are drawn, the global one in metres about the origin the link asked for, the
+        # first one current and labelled 1
+        goals = wait_for(lambda: len(goals_drawn(browser)) == 2 and goals_drawn(browser), 5.0, "2 goals")
+        assert [(g["seq"], g["index"], g["label"], g["current"]) for g in goals] == [
+            (1, 0, "1", True),
+            (2, 1, "2", False),
+        ]
+        assert (goals[0]["x"], goals[0]["y"]) == (11.1319, 0.0) and (goals[1]["x"], goals[1]["y"]) == (20, 5)
+        assert "not drawn" not in text_of(browser, "note")
+        assert console_errors(browser) == []
+
+
+def test_the_link_badge_says_when_no_update_came_for_3_s(browser: Any) -> None:
+    # GIVEN a page that got its first picture (the vehicle in it), and then no update (the server pushes none)
+    client = ScriptedClient()
+    with serving(client, push=False) as url:
+        assert client.reported.wait(5.0)
+        open_map(browser, url)
+        link = browser.find_element("id", "link")
+        assert "stale" not in (link.get_attribute("class") or "")
+        # THEN after 3 s the badge says the view is old
+        wait_for(lambda: "stale" in (link.get_attribute("class") or ""), 5.0, "the link badge stale")
+        assert re.fullmatch(r"no update for [3-9] s", link.text), link.text
+        assert "stale" in (browser.find_element("id", "vehicle").get_attribute("class") or "")
         assert console_errors(browser) == []
 
 

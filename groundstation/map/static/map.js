@@ -4,6 +4,9 @@
  * metres at (east, -north) under one transform, screen = (k * east + tx, -k * north + ty); goals, the vehicle,
  * the grid and the scale bar are placed in screen pixels with the same numbers (their size does not change
  * with the zoom). Every drawn thing carries its metres in data-* attributes (the browser test reads them).
+ * A number the ground station could not give is null: a goal without its position or depth, an obstacle
+ * without its position or radius, is not drawn (the note says how many). Live, an update comes at least
+ * once a second: none for STALE_S and the link badge says so (class "stale") and the vehicle turns grey.
  */
 "use strict";
 (function () {
@@ -13,7 +16,7 @@
   const svg = $("map");
   const world = $("world");
   const S = {
-    mode: "", t0: 0, t1: 0, ws: null, updates: 0,
+    mode: "", t0: 0, t1: 0, ws: null, updates: 0, lastUpdateMs: 0, stale: false,
     telemetry: null, plan: { goals: [], obstacles: [] }, path: null, track: [], trackText: "",
   };
   const view = { k: 8, tx: 0, ty: 0, auto: true };
@@ -35,6 +38,10 @@
   const finite = (v) => typeof v === "number" && Number.isFinite(v);
   const fmt = (v, unit, digits) => (finite(v) ? `${v.toFixed(digits)} ${unit}` : "-");
   const r2 = (v) => Math.round(v * 100) / 100;
+  const drawable = {
+    goal: (g) => finite(g.x_m) && finite(g.y_m) && finite(g.depth_m),
+    obstacle: (o) => finite(o.x_m) && finite(o.y_m) && finite(o.radius_m) && o.radius_m >= 0,
+  };
 
   function bounds() {
     let nMin = Infinity, nMax = -Infinity, eMin = Infinity, eMax = -Infinity;
@@ -43,8 +50,8 @@
       nMin = Math.min(nMin, n - r); nMax = Math.max(nMax, n + r);
       eMin = Math.min(eMin, e - r); eMax = Math.max(eMax, e + r);
     };
-    for (const g of S.plan.goals) add(g.x_m, g.y_m, 1);
-    for (const o of S.plan.obstacles) add(o.x_m, o.y_m, o.radius_m);
+    for (const g of S.plan.goals) if (drawable.goal(g)) add(g.x_m, g.y_m, 1);
+    for (const o of S.plan.obstacles) if (drawable.obstacle(o)) add(o.x_m, o.y_m, o.radius_m);
     if (S.path) for (const p of S.path.points_m) add(p[0], p[1], 0);
     for (const p of S.track) add(p[0], p[1], 0);
     const v = S.telemetry && S.telemetry.vehicle;
@@ -106,7 +113,7 @@
   function drawObstacles() {
     const g = $("obstacles");
     g.replaceChildren();
-    for (const o of S.plan.obstacles) {
+    for (const o of S.plan.obstacles.filter(drawable.obstacle)) {
       el("circle", {
         class: "obstacle", cx: o.y_m, cy: -o.x_m, r: o.radius_m, "vector-effect": "non-scaling-stroke",
         "data-x-m": o.x_m, "data-y-m": o.y_m, "data-radius-m": o.radius_m,
@@ -142,16 +149,17 @@
     const g = $("goals");
     g.replaceChildren();
     const t = S.telemetry || {};
-    const cur = t.goal ? t.goal.seq : -1;
+    const cur = t.goal ? t.goal.index : -1;  // the goal index (0-based), as the goals carry theirs
     const flying = ["ARMED", "RUNNING", "HOLD"].includes(t.state);
-    for (const goal of S.plan.goals) {
+    for (const goal of S.plan.goals.filter(drawable.goal)) {
       const [x, y] = toScreen(goal.x_m, goal.y_m);
       let cls = "goal";
-      if (goal.seq === cur && flying) cls += " current";
-      else if (goal.seq < cur || t.state === "COMPLETE") cls += " reached";
+      if (goal.index === cur && flying) cls += " current";
+      else if (goal.index < cur || t.state === "COMPLETE") cls += " reached";
       const m = el("g", {
-        class: cls, transform: `translate(${x},${y})`, "data-seq": goal.seq, "data-x-m": goal.x_m,
-        "data-y-m": goal.y_m, "data-depth-m": goal.depth_m, "data-yaw-deg": goal.yaw_deg ?? "",
+        class: cls, transform: `translate(${x},${y})`, "data-seq": goal.seq, "data-index": goal.index,
+        "data-x-m": goal.x_m, "data-y-m": goal.y_m, "data-depth-m": goal.depth_m,
+        "data-yaw-deg": goal.yaw_deg ?? "",
       }, g);
       if (finite(goal.yaw_deg)) {
         const a = el("g", { class: "arrow", transform: `rotate(${goal.yaw_deg})` }, m);
@@ -159,9 +167,9 @@
         el("polygon", { points: "0,-38 6,-28 -6,-28" }, a);
       }
       el("circle", { r: 9 }, m);
-      el("text", { "text-anchor": "middle", dy: "0.35em" }, m).textContent = String(goal.seq + 1);
+      el("text", { "text-anchor": "middle", dy: "0.35em" }, m).textContent = String(goal.index + 1);
       el("title", {}, m).textContent =
-        `goal ${goal.seq + 1}: N ${goal.x_m} m, E ${goal.y_m} m, depth ${goal.depth_m} m` +
+        `goal ${goal.index + 1}: N ${goal.x_m} m, E ${goal.y_m} m, depth ${goal.depth_m} m` +
         (finite(goal.yaw_deg) ? `, yaw ${goal.yaw_deg} deg` : ", yaw: the planner's");
     }
   }
@@ -183,7 +191,7 @@
     m.dataset.depthM = String(v.depth_m ?? "");
     m.dataset.yawDeg = String(v.yaw_deg ?? "");
     m.dataset.timeBootMs = String(v.time_boot_ms);
-    m.classList.toggle("stale", t.link !== "ok" || v.age_s > STALE_S);
+    m.classList.toggle("stale", S.stale || t.link !== "ok" || v.age_s > STALE_S);
   }
 
   function render() {
@@ -200,6 +208,23 @@
     const l = $("link");
     l.textContent = text;
     l.classList.toggle("bad", Boolean(bad));
+    l.classList.toggle("stale", S.stale);
+  }
+
+  /** Live, connected and no update for STALE_S: what the page shows is old; say so (checked twice a second). */
+  function checkStale() {
+    const age = (performance.now() - S.lastUpdateMs) / 1000;
+    const stale = S.mode === "live" && S.ws !== null && S.ws.readyState === WebSocket.OPEN &&
+      S.updates > 0 && age >= STALE_S;
+    if (stale) {
+      S.stale = true;
+      setLink(`no update for ${Math.floor(age)} s`, true);
+      drawVehicle();
+    } else if (S.stale) {  // (an update resets it itself; here the websocket closed: its text stays)
+      S.stale = false;
+      $("link").classList.remove("stale");
+      drawVehicle();
+    }
   }
 
   function showNumbers() {
@@ -210,8 +235,9 @@
     const goal = $("goal");
     if (!t.goal) goal.textContent = "goal - of -";
     else if (t.goal.total === 0) goal.textContent = "no mission";
-    else goal.textContent = `goal ${Math.min(t.goal.seq + 1, t.goal.total)} of ${t.goal.total}`;
+    else goal.textContent = `goal ${Math.min(t.goal.index + 1, t.goal.total)} of ${t.goal.total}`;
     goal.dataset.seq = t.goal ? String(t.goal.seq) : "";
+    goal.dataset.index = t.goal ? String(t.goal.index) : "";
     goal.dataset.total = t.goal ? String(t.goal.total) : "";
     const e = t.errors || {};
     const v = t.vehicle || {};
@@ -234,8 +260,13 @@
       list.appendChild(li);
     }
     const notes = [];
-    if (S.plan.goals_not_drawn) notes.push(`${S.plan.goals_not_drawn} mission items not drawn (not local NED goals)`);
-    if (S.plan.fence_not_drawn) notes.push(`${S.plan.fence_not_drawn} fence items not drawn (not local NED circles)`);
+    const waiting = S.plan.origin ? "" : "; global ones wait for the vehicle's origin";
+    if (S.plan.goals_not_drawn) notes.push(`${S.plan.goals_not_drawn} mission items not drawn (no waypoint with a place${waiting})`);
+    if (S.plan.fence_not_drawn) notes.push(`${S.plan.fence_not_drawn} fence items not drawn (no exclusion circle with a place${waiting})`);
+    const badGoals = S.plan.goals.filter((g) => !drawable.goal(g)).length;
+    const badObstacles = S.plan.obstacles.filter((o) => !drawable.obstacle(o)).length;
+    if (badGoals) notes.push(`${badGoals} goals not drawn (a position or depth that is no number)`);
+    if (badObstacles) notes.push(`${badObstacles} obstacles not drawn (a position or radius that is no number)`);
     if (t.note) notes.push(t.note);
     $("note").textContent = notes.join("; ");
   }
@@ -259,6 +290,8 @@
   }
 
   function onUpdate(m) {
+    S.lastUpdateMs = performance.now();
+    S.stale = false;
     S.telemetry = m.telemetry;
     if ("plan" in m) {
       S.plan = m.plan;
@@ -365,4 +398,5 @@
   setAuto(true);
   render();
   connect();
+  setInterval(checkStale, 500);
 })();

@@ -13,6 +13,7 @@ import struct
 import subprocess
 import sys
 import time
+import zlib
 from pathlib import Path
 
 import pytest
@@ -58,6 +59,8 @@ def test_the_planned_path_is_a_file_any_ground_station_can_read(vehicle: Vehicle
         assert pts[-1][:2] == pytest.approx([60.0, 20.0], abs=0.05) and pts[-1][2] == pytest.approx(2.0)
         steps = [((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2) ** 0.5 for a, b in itertools.pairwise(pts)]
         assert max(steps) <= 0.5 + 1e-3
+        # AND its CRC-32 (what the map asks before it reads again) is that of its bytes
+        assert c.file_crc32("@PATH/planned.json") == zlib.crc32(c.read_file("@PATH/planned.json"))
         # AND the directory lists it with its size
         assert c.list_dir("/") == [("D", "@PATH", 0), ("D", "logs", 0)]
         ((kind, name, size),) = c.list_dir("@PATH")

@@ -486,6 +486,7 @@ def test_plot_draws_a_flight_log_with_paths_goals_fence_and_states(tmp_path: Pat
         "state_changes": 3,  # IDLE -> ARMED -> RUNNING -> HOLD (the first state is no change)
         "notes": 2,
         "truncated": 0,
+        "skipped": 0,
     }
 
 
@@ -537,6 +538,72 @@ def test_plot_refuses_an_mcap_that_is_no_flight_log(tmp_path: Path) -> None:
         w.finish()
     with pytest.raises(ValueError, match="not an onboard flight log"):
         plot_tlog(f, tmp_path / "x.png")
+
+
+def _foreign_log(path: Path, messages: list[tuple[str, bytes]]) -> Path:
+    """An MCAP file of another program (or a damaged one) with the flight log's JSON topics: ``messages``
+    as (topic, raw data), a footer at the end."""
+    from mcap.writer import Writer
+
+    with open(path, "wb") as out:
+        w = Writer(out)
+        w.start()
+        schema = w.register_schema("x", "jsonschema", b'{"type": "object"}')
+        channels = {t: w.register_channel(t, "json", schema) for t in ("/telemetry", "/path", "/mission")}
+        for k, (topic, data) in enumerate(messages):
+            w.add_message(channels[topic], k, data, k)
+        w.finish()
+    return path
+
+
+def _tick(k: int) -> tuple[str, bytes]:
+    return "/telemetry", json.dumps({"t_s": 0.1 * k, "x_m": 0.5 * k, "y_m": 0.0, "depth_m": 1.0}).encode()
+
+
+def test_plot_skips_flight_log_messages_that_are_no_json_object(tmp_path: Path) -> None:
+    from groundstation.plot import plot_tlog
+
+    # GIVEN a log whose /telemetry holds a JSON list, a string, no JSON and 100000 nested lists among ticks
+    deep = b"[" * 100_000 + b"]" * 100_000
+    junk = [("/telemetry", b"[1, 2]"), ("/telemetry", b'"tick"'), ("/telemetry", b"{not json"),
+            ("/telemetry", deep), ("/mission", b"[]"), ("/path", b"7")]  # fmt: skip
+    f = _foreign_log(tmp_path / "f.mcap", [_tick(0), *junk, _tick(1), _tick(2)])
+    # WHEN plotted
+    drawn = plot_tlog(f, tmp_path / "f.png")
+    # THEN the ticks are drawn, the rest skipped and counted (no TypeError: a list is no message)
+    assert (drawn["ticks"], drawn["skipped"], drawn["truncated"]) == (3, len(junk), 0)
+    assert (tmp_path / "f.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("message", "reason"),
+    [
+        (("/mission", b'{"goals": [{"x_m": 1.0}]}'), "/mission message 0: missing goals[0].y_m"),
+        (("/mission", b'{"goals": [[1.0, 2.0]]}'), "/mission message 0: goals[0] must be an object"),
+        (("/mission", b'{"goals": 5}'), "/mission message 0: goals must be an array, got 5"),
+        (("/mission", b'{"goals": [{"x_m": "1", "y_m": 2}]}'), 'goals[0].x_m must be a number, got "1"'),
+        (("/mission", b'{"obstacles": [{"x_m": 1, "y_m": 2}]}'), "missing obstacles[0].radius_m"),
+        (("/path", b'{"x_m": [1.0, 2.0]}'), "/path message 0: x_m has 2 points, y_m 0"),
+        (("/path", b'{"x_m": 3, "y_m": 4}'), "/path message 0: x_m must be an array, got 3"),
+    ],
+)
+def test_plot_refuses_a_mission_or_path_message_it_cannot_decode_with_the_reason(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], message: tuple[str, bytes], reason: str
+) -> None:
+    from groundstation import __main__ as gcs
+    from groundstation.plot import plot_tlog
+
+    # GIVEN a foreign log: good ticks, and a /mission or /path object that is not of the flight log's shape
+    f = _foreign_log(tmp_path / "f.mcap", [_tick(0), message, _tick(1)])
+    # THEN plotting it is a ValueError that names the file, the message and the reason; no picture
+    with pytest.raises(ValueError) as err:
+        plot_tlog(f, tmp_path / "f.png")
+    assert str(err.value).startswith(f"{f}: ") and reason in str(err.value), err.value
+    assert not (tmp_path / "f.png").exists()
+    # AND the command line says so in one line, exit 2
+    assert gcs.main(["--json", "plot", str(f)]) == 2
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and reason in json.loads(lines[0])["error"]
 
 
 def test_plot_of_a_tlog_marks_the_state_changes_of_the_heartbeat(tmp_path: Path) -> None:

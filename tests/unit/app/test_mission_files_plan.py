@@ -232,6 +232,69 @@ def test_a_plan_file_that_is_no_json_plan(tmp_path: Path, text: str, match: str)
     assert str(err.value).startswith(f"{p}: ") and "\n" not in str(err.value)
 
 
+DEEP = "[" * 100_000 + "]" * 100_000  # 100000 nested lists: past Python's recursion limit
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("deep.plan", DEEP),  # a .plan file: the plan reader
+        ("deep.json", '{"fileType": "Plan", "mission": ' + DEEP + "}"),  # JSON told a plan by its content
+        ("deep.yaml", DEEP),  # YAML (a flow sequence)
+    ],
+)
+def test_a_file_nested_too_deep_is_one_line_not_a_traceback(tmp_path: Path, name: str, text: str) -> None:
+    # GIVEN a file of 100000 nested lists
+    p = write(tmp_path, text, name)
+    # WHEN it is read
+    with pytest.raises(mf.MissionFileError) as err:
+        mf.load(p)
+    # THEN one line names the file and says why (no RecursionError escapes)
+    assert "nested too deep" in str(err.value)
+    assert str(err.value).startswith(f"{p}: ") and "\n" not in str(err.value)
+
+
+def test_upload_of_a_plan_nested_too_deep_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    p = write(tmp_path, DEEP, "deep.plan")
+    assert gcs.main(["--json", "--tlog-dir", str(tmp_path), "upload", str(p)]) == 2
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and not json.loads(lines[0])["ok"] and "nested too deep" in lines[0]
+
+
+WPL_HOME = "0\t1\t0\t16\t0\t0\t0\t0\t35.1\t129.04\t0\t1"
+
+
+@pytest.mark.parametrize(
+    ("line", "match"),
+    [
+        ("1\t0\t1\t16\t0\t0\t0\t0\t1e300\t0\t1\t1", ":3: x = 1e+300 does not fit MISSION_ITEM_INT"),
+        ("1\t0\t1\t16\t0\t0\t0\t0\t0\t-214748.3649\t1\t1", ":3: y = -214748.3649 does not fit"),
+        ("1\t0\t3\t16\t0\t0\t0\t0\t1e300\t129\t-2\t1", ":3: x (latitude) = 1e+300 does not fit"),
+        ("1\t0\t3\t16\t0\t0\t0\t0\t35\t215\t-2\t1", ":3: y (longitude) = 215.0 does not fit"),
+        ("1\t0\t1\t16\t0\t0\t0\t0\tinf\t0\t1\t1", ":3: x must be a number, got Infinity"),
+        ("1\t0\t1\t16\t0\t0\t0\t0\t0\tnan\t1\t1", ":3: y must be a number, got NaN"),
+    ],
+)
+def test_a_wpl_position_that_does_not_fit_an_int32_is_refused_with_its_line(
+    tmp_path: Path, line: str, match: str
+) -> None:
+    # GIVEN a WPL file whose item's x or y, scaled (1e4 local, 1e7 global), is no int32 (the upload would
+    # die packing it)
+    p = write(tmp_path, f"QGC WPL 110\n{WPL_HOME}\n{line}\n", "m.waypoints")
+    # THEN the same check as the plan reader's refuses it, naming the file and the line
+    with pytest.raises(mf.MissionFileError) as err:
+        mf.load(p)
+    assert str(err.value).startswith(f"{p}:3: ") and match in str(err.value)
+
+
+def test_a_wpl_position_at_the_int32_limits_reads(tmp_path: Path) -> None:
+    line = "1\t0\t1\t16\t0\t0\t0\t0\t214748.3647\t-214748.3648\t1\t1"
+    goals, _ = mf.load(write(tmp_path, f"QGC WPL 110\n{WPL_HOME}\n{line}\n", "m.waypoints"))
+    assert [(g.x, g.y) for g in goals] == [(mf.INT32_MAX, -mf.INT32_MAX - 1)]
+
+
 def test_the_format_is_told_by_content(tmp_path: Path) -> None:
     # GIVEN a plan under another name, a JSON file of another kind, and a YAML flow mapping
     plan = write(tmp_path, EXAMPLE.read_text(), "from-qgc.json")
@@ -449,3 +512,39 @@ def test_a_home_placeholder_the_goals_do_not_need_is_the_files_home_only(
     got = round_trip(tmp_path, fmt, [home, *rest], [])[0]
     # THEN the goals read back, and the placeholder (never flown) stays the file's home
     assert key(got) == key(rest)
+
+
+# ---- the vehicle's projection --------------------------------------------------------------------------
+ORIGIN = mf.Origin(35.1, 129.04, 12.0)
+
+
+@pytest.mark.parametrize(
+    ("lat_deg", "lon_deg", "origin", "want"),
+    [
+        (35.101, 129.04, ORIGIN, (111.31949079327357, 0.0)),  # 0.001 deg north = radians(0.001) * R
+        (35.1, 129.041, ORIGIN, (0.0, 91.07600993641427)),  # 0.001 deg east, times cos(35.1 deg)
+        (35.0995, 129.0395, ORIGIN, (-55.65974539663679, -45.538004968207135)),
+        (0.0, -179.999, mf.Origin(0.0, 179.999, 0.0), (0.0, 222.63898158654715)),  # across the date line
+    ],
+)
+def test_global_to_local_is_the_flat_earth_projection_about_the_origin(
+    lat_deg: float, lon_deg: float, origin: mf.Origin, want: tuple[float, float]
+) -> None:
+    assert mf.global_to_local(lat_deg, lon_deg, origin) == pytest.approx(want, abs=1e-6)
+
+
+@SETTINGS
+@given(
+    item=st.one_of(raw_item(WAYPOINT), raw_item(EXCLUSION)),
+    origin=st.builds(mf.Origin, st.floats(-80, 80), st.floats(-180, 180), st.floats(-100, 100)),
+)
+def test_local_ned_of_an_item_is_where_the_vehicle_takes_it(item: Item, origin: mf.Origin) -> None:
+    # GIVEN an item in any frame the vehicle takes, and the vehicle's origin
+    limits = MissionLimits(origin_lat_deg=origin.lat_deg, origin_lon_deg=origin.lon_deg,
+                           origin_alt_m=origin.alt_m)  # fmt: skip
+    got = mf.local_ned(item, origin)
+    # THEN the ground station puts it where the vehicle does (onboard item_position)
+    want = item_position(vehicle_item(item), limits)
+    assert got is not None and got == pytest.approx(want, abs=1e-9, nan_ok=True)
+    # AND without the origin a global item has no place
+    assert (mf.local_ned(item, None) is None) is (item.frame != mavlink.MAV_FRAME_LOCAL_NED)

@@ -30,13 +30,16 @@ from groundstation.map.state import (
     yaw_error_deg,
 )
 from groundstation.mavclient import Item
-from groundstation.mission_files import goal_item, obstacle_item
+from groundstation.mission_files import fence_circle_item, goal_item, home_item, obstacle_item
 from onboard.adapters.mavlink.modes import custom_mode
 from onboard.core.mission.state import MissionState
 
 VEHICLE = (1, 1)
 GCS = (255, 190)
 T0 = 1_800_000_000.0  # unix s
+MISSION, FENCE = mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_FENCE
+LOCAL, WAYPOINT = mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_CMD_NAV_WAYPOINT
+EXCLUSION = mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
 
 
 def wire(msg: Any, src: tuple[int, int] = VEHICLE) -> Any:
@@ -141,10 +144,11 @@ def test_goals_are_decoded_by_the_mission_files_owner_with_their_seq() -> None:
     items = [goal_item(12.5, -3.25, 2.0, 90.0), global_item, goal_item(30.0, 20.0, 1.0, None)]
     # WHEN decoded for the map
     goals = goals_of(items)
-    # THEN the local goals come out in metres with their MAVLink seq; the global one is not drawn
+    # THEN the local goals come out in metres with their MAVLink seq and goal index (no home placeholder:
+    # the same); the global one is not drawn (no origin given)
     assert goals == [
-        {"seq": 0, "x_m": 12.5, "y_m": -3.25, "depth_m": 2.0, "yaw_deg": 90.0},
-        {"seq": 2, "x_m": 30.0, "y_m": 20.0, "depth_m": 1.0, "yaw_deg": None},
+        {"seq": 0, "index": 0, "x_m": 12.5, "y_m": -3.25, "depth_m": 2.0, "yaw_deg": 90.0},
+        {"seq": 2, "index": 2, "x_m": 30.0, "y_m": 20.0, "depth_m": 1.0, "yaw_deg": None},
     ]
     assert goals_of([]) == []
 
@@ -226,7 +230,7 @@ def test_telemetry_carries_heading_goal_and_errors_and_is_strict_json() -> None:
     m.apply(T0, mission_current(1, 2))
     t = m.telemetry(T0 + 0.5)
     assert t["vehicle"]["yaw_deg"] == pytest.approx(270.0)
-    assert t["goal"] == {"seq": 1, "total": 2, "mission_state": "MISSION_STATE_ACTIVE"}
+    assert t["goal"] == {"seq": 1, "index": 1, "total": 2, "mission_state": "MISSION_STATE_ACTIVE"}
     assert t["errors"] == {
         "goal_distance_m": 17.0,
         "cross_track_m": pytest.approx(0.25),
@@ -290,6 +294,85 @@ def test_plans_set_bump_the_version_only_when_they_change() -> None:
         {"x_m": 2.0, "y_m": 4.0, "radius_m": 1.5}
     ]
     assert pic.plan["goals_not_drawn"] == 0 and pic.plan["fence_not_drawn"] == 0
+
+
+def test_plan_numbers_that_are_not_finite_are_none_and_the_update_is_strict_json() -> None:
+    # GIVEN plans with a NaN depth and an infinite yaw, and an infinite radius (the vehicle takes neither,
+    # but a download is what the vehicle says, and one picture with a NaN stopped every page's updates)
+    bad_goal = Item(LOCAL, WAYPOINT, 0.0, math.nan, 0.0, math.inf, 100_000, 0, math.nan)
+    bad_circle = Item(LOCAL, EXCLUSION, math.inf, 0.0, 0.0, 0.0, 20_000, 0, 0.0)
+    m = running_model()
+    m.set_plan(MISSION, [bad_goal, goal_item(5.0, 0.0, 1.0, None)])
+    m.set_plan(FENCE, [bad_circle])
+    # WHEN a page is sent the picture
+    msg, _ = update_for(m.picture(T0), None)
+    # THEN it is JSON (no NaN), each number that is not finite None: the page does not draw that item
+    json.dumps(msg, allow_nan=False)
+    assert [(g["depth_m"], g["yaw_deg"]) for g in msg["plan"]["goals"]] == [(None, None), (1.0, None)]
+    assert msg["plan"]["obstacles"] == [{"x_m": 2.0, "y_m": 0.0, "radius_m": None}]
+
+
+@pytest.mark.parametrize(
+    ("home", "seq", "index"),
+    [
+        (True, 1, 0),  # with a home placeholder, seq = goal index + 1
+        (True, 2, 1),
+        (True, 0, 0),  # the home's seq: the vehicle flies goal 0
+        (False, 1, 1),  # without one, seq = goal index
+        (False, 0, 0),
+    ],
+)
+def test_the_goal_index_is_mission_current_s_seq_less_the_home_placeholder(
+    home: bool, seq: int, index: int
+) -> None:
+    # GIVEN a downloaded mission of two goals, with or without a home placeholder in front (QGC sends one)
+    goals = [goal_item(10.0, 0.0, 1.0, None), goal_item(20.0, 0.0, 1.0, None)]
+    m = running_model()
+    m.set_plan(MISSION, [home_item(35.1, 129.04, 0.0), *goals] if home else goals)
+    # WHEN the vehicle reports MISSION_CURRENT
+    m.apply(T0, mission_current(seq, 2))
+    pic = m.picture(T0)
+    # THEN the telemetry carries the goal index (0-based) the page shows as "goal index+1 of 2", and each
+    # goal drawn has its index; the home placeholder is no goal (neither drawn nor "not drawn")
+    assert pic.telemetry["goal"]["index"] == index and pic.telemetry["goal"]["seq"] == seq
+    assert [(g["seq"], g["index"]) for g in pic.plan["goals"]] == [(0 + home, 0), (1 + home, 1)]
+    assert pic.plan["goals_not_drawn"] == 0
+
+
+def origin_message(lat_e7: int = 351_000_000, lon_e7: int = 1_290_400_000, alt_mm: int = 12_000) -> Any:
+    return wire(mavlink.MAVLink_gps_global_origin_message(lat_e7, lon_e7, alt_mm, 0))
+
+
+def test_global_items_are_drawn_in_metres_once_the_vehicle_s_origin_is_known() -> None:
+    # GIVEN a plan as QGC uploads it: a home placeholder, a waypoint 0.001 deg north at altitude -2 m
+    # relative, one 0.001 deg east at 9 m AMSL, and an exclusion circle 0.0005 deg north
+    rel = Item(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WAYPOINT, 0, 0, 0, math.nan, 351_010_000,
+               1_290_400_000, -2.0)  # fmt: skip
+    amsl = Item(mavlink.MAV_FRAME_GLOBAL_INT, WAYPOINT, 0, 0, 0, math.nan, 351_000_000, 1_290_410_000, 9.0)
+    m = running_model()
+    m.set_plan(MISSION, [home_item(35.1, 129.04, 12.0), rel, amsl])
+    m.set_plan(FENCE, [fence_circle_item(35.1005, 129.04, 3.0)])
+    # THEN before the vehicle's origin came they are not drawn (and counted so)
+    pic = m.picture(T0)
+    assert pic.plan["goals"] == [] and pic.plan["obstacles"] == [] and pic.plan["origin"] is None
+    assert (pic.plan["goals_not_drawn"], pic.plan["fence_not_drawn"]) == (2, 1)
+    version = m.plan_version
+    # WHEN the vehicle's GPS_GLOBAL_ORIGIN comes (35.1 N, 129.04 E, 12 m AMSL)
+    m.apply(T0, origin_message())
+    m.apply(T0 + 5.0, origin_message())  # (the same again: no new plan)
+    pic = m.picture(T0 + 5.0)
+    # THEN they are drawn in local NED metres, projected as the vehicle does (flat earth about its origin):
+    # 0.001 deg north = 111.3195 m, 0.001 deg east = 91.076 m at 35.1 N (to 0.1 mm); depth = -altitude
+    # relative, the origin's altitude - altitude AMSL
+    assert m.plan_version == version + 1
+    assert pic.plan["origin"] == {"lat_deg": 35.1, "lon_deg": 129.04, "alt_m": 12.0}
+    assert [(g["seq"], g["index"], g["x_m"], g["y_m"], g["depth_m"]) for g in pic.plan["goals"]] == [
+        (1, 0, 111.3195, 0.0, 2.0),
+        (2, 1, 0.0, 91.076, 3.0),
+    ]
+    assert pic.plan["obstacles"] == [{"x_m": 55.6597, "y_m": 0.0, "radius_m": 3.0}]
+    assert (pic.plan["goals_not_drawn"], pic.plan["fence_not_drawn"]) == (0, 0)
+    json.dumps(update_for(pic, None)[0], allow_nan=False)
 
 
 def test_path_set_bumps_its_version_only_when_it_changes() -> None:
