@@ -72,6 +72,7 @@ from auv_common.cli import yaml_error_line
 from groundstation.mavclient import Item
 
 LOCAL_SCALE = 1e4
+FLOAT32_MAX = 3.4028234663852886e38  # MAVLink's float fields
 GLOBAL_SCALE = 1e7
 #: The flat-earth radius of the vehicle's projection (onboard ``mission_protocol.EARTH_RADIUS_M``), m.
 EARTH_RADIUS_M = 6_378_137.0
@@ -536,8 +537,20 @@ def load_plan(path: Path) -> tuple[list[Item], list[Item]]:
 
 def load(path: str | Path) -> tuple[list[Item], list[Item]]:
     """(mission items, fence items) from a YAML, QGC WPL 110 or QGC plan file, told apart by content: the
-    WPL header, else JSON with a ``fileType`` (or a ``.plan`` file) is a plan, else YAML."""
+    WPL header, else JSON with a ``fileType`` (or a ``.plan`` file) is a plan, else YAML. Every param and z
+    must fit MAVLink's float32 (1e300 would be refused at the upload with a traceback)."""
     p = Path(path)
+    goals, fences = _load_any(p)
+    for kind, items in (("goal", goals), ("fence item", fences)):
+        for i, it in enumerate(items):
+            for name in ("param1", "param2", "param3", "param4", "z"):
+                v = getattr(it, name)
+                if math.isfinite(v) and abs(v) > FLOAT32_MAX:
+                    raise MissionFileError(f"{p}: {kind} {i}: {name} = {v!r} does not fit MAVLink's float32")
+    return goals, fences
+
+
+def _load_any(p: Path) -> tuple[list[Item], list[Item]]:
     text = _read(p)
     if text.startswith("QGC WPL"):
         return load_wpl(p)

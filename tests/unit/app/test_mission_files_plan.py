@@ -430,7 +430,7 @@ def test_download_refuses_an_unknown_format() -> None:
 
 
 # ---- round trips ---------------------------------------------------------------------------------------
-finite = st.floats(allow_nan=False, allow_infinity=False)
+finite = st.floats(allow_nan=False, allow_infinity=False, width=32)  # MAVLink's float fields
 param = st.one_of(st.just(math.nan), finite)
 lat_e7 = st.integers(-900_000_000, 900_000_000)
 lon_e7 = st.integers(-1_800_000_000, 1_800_000_000)
@@ -548,3 +548,12 @@ def test_local_ned_of_an_item_is_where_the_vehicle_takes_it(item: Item, origin: 
     assert got is not None and got == pytest.approx(want, abs=1e-9, nan_ok=True)
     # AND without the origin a global item has no place
     assert (mf.local_ned(item, None) is None) is (item.frame != mavlink.MAV_FRAME_LOCAL_NED)
+
+
+@pytest.mark.parametrize("suffix", [".plan", ".waypoints", ".yaml"])
+def test_a_number_beyond_float32_is_refused_with_the_place(tmp_path: Path, suffix: str) -> None:
+    g = [mf.goal_item(10.0, 0.0, 1.0, 1e300)]  # yaw 1e300: MAVLink's float32 cannot carry it
+    p = tmp_path / f"m{suffix}"
+    p.write_text(mf.dump(mf.format_for(p), g, []), encoding="utf-8")
+    with pytest.raises(mf.MissionFileError, match=r"goal 0: param4 = 1e\+300 does not fit MAVLink's float32"):
+        mf.load(p)
