@@ -75,6 +75,7 @@ from onboard.core.planner.path import sample_evenly
 log = logging.getLogger(__name__)
 
 MAX_SESSIONS = 4
+MAX_REMEMBERED = 64  # stations whose last reply is kept for a resend
 SESSION_IDLE_S = 5.0  # a session with no request for this long is closed (its reader is gone)
 BURST_PACKETS = 64  # data packets per BurstReadFile request (15 kB); the reader asks again for the rest
 TX_PACKETS_PER_S = 2000.0  # every station's FTP replies together (500 kB/s): a burst beyond it is cut short
@@ -243,7 +244,11 @@ class FtpService:
             except OSError as exc:  # a log removed or unreadable under our feet
                 log.warning("ftp: %s", exc)
                 replies = [self._nak(req, FAIL).encode()]
-            self._last[who] = (req, replies)
+            if req.opcode not in (READ, BURST_READ):  # only what a resend must not redo is kept
+                self._last.pop(who, None)
+                self._last[who] = (req, replies)
+                while len(self._last) > MAX_REMEMBERED:  # one per station; spoofed ids cannot grow it
+                    del self._last[next(iter(self._last))]
         for raw in replies:
             self.served += 1
             self.transport.reply(
@@ -326,6 +331,8 @@ class FtpService:
                     Packet(req.seq + 1 + len(burst), req.session, ACK, len(chunk), op, 0, offset, chunk)
                 )
                 offset += len(chunk)
+            if not burst:  # the file shrank since it was opened
+                return [self._nak(req, EOF)]
             end = burst[-1]
             burst[-1] = Packet(end.seq, end.session, ACK, end.size, op, 1, end.offset, end.data)
             return burst

@@ -112,3 +112,17 @@ def test_only_flight_logs_are_served_newest_last(tmp_path: Path) -> None:
     request(svc, ftp.Packet(1, 0, ftp.LIST, 0, 0, 0, 0, b"logs"))
     names = [e.split(b"\t")[0][1:].decode() for e in wire.out[-1].data.split(b"\0") if e]
     assert names == ["flight-20261202-010000.mcap", "flight-20261202-010000-2.mcap"]
+
+
+def test_a_file_that_shrank_and_many_spoofed_ids_cost_nothing(tmp_path: Path) -> None:
+    log = tmp_path / "flight-20261202-010000.mcap"
+    log.write_bytes(os.urandom(10_000))
+    svc, wire = make(tmp_path, VehicleSnapshot())
+    request(svc, ftp.Packet(1, 0, ftp.OPEN_RO, 0, 0, 0, 0, b"logs/flight-20261202-010000.mcap"))
+    (opened,) = wire.out
+    log.write_bytes(b"")  # rotated or truncated under the reader
+    request(svc, ftp.Packet(2, opened.session, ftp.BURST_READ, 0, 0, 0, 0, b""))
+    assert wire.out[-1].opcode == ftp.NAK and wire.out[-1].data[0] == ftp.EOF
+    for i in range(5000):  # a stranger cycling through ids: what is kept for resends stays bounded
+        request(svc, ftp.Packet(1, 0, ftp.LIST, 0, 0, 0, 0, b"/"), Sender(i % 250 + 1, i // 250))
+    assert len(svc._last) <= service.MAX_REMEMBERED
