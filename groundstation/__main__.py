@@ -481,7 +481,8 @@ def _fly(
         return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, f"[red]{_esc(text)}[/]")
     offset = 1 if mission_files.is_home_placeholder(goals) else 0
     n_goals = len(goals) - offset
-    xy = [mission_files.local_xy_m(g) for g in goals[offset:]]
+    # the local goals' (x, y), for the distance to go (a global goal's origin is the vehicle's: None)
+    xy = [None if (ned := mission_files.local_ned(g, None)) is None else ned[:2] for g in goals[offset:]]
     start_sent = False
     try:
         for step, (cmd, params) in (

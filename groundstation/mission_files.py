@@ -116,14 +116,6 @@ def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None) -> 
     )
 
 
-def local_xy_m(item: Item) -> tuple[float, float] | None:
-    """(x north, y east) in metres of a local-frame item; None for a global one (its origin is the
-    vehicle's)."""
-    if item.frame != mavlink.MAV_FRAME_LOCAL_NED:
-        return None
-    return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE
-
-
 @dataclass(frozen=True)
 class Origin:
     """The vehicle's geodetic origin of its local NED frame (GPS_GLOBAL_ORIGIN): degrees, metres AMSL."""
@@ -157,17 +149,15 @@ def local_ned(item: Item, origin: Origin | None) -> tuple[float, float, float] |
     return x_m, y_m, depth_m
 
 
+def _circle_item(frame: int, x: int, y: int, radius_m: float, autocontinue: int = 1) -> Item:
+    """A circle exclusion fence item (MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1 the radius)."""
+    return Item(frame, mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, float(radius_m), 0.0, 0.0, 0.0, x, y, 0.0,
+                autocontinue)  # fmt: skip
+
+
 def obstacle_item(x_m: float, y_m: float, radius_m: float) -> Item:
-    return Item(
-        frame=mavlink.MAV_FRAME_LOCAL_NED,
-        command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
-        param1=float(radius_m),
-        param2=0.0,
-        param3=0.0,
-        param4=0.0,
-        x=round(x_m * LOCAL_SCALE),
-        y=round(y_m * LOCAL_SCALE),
-        z=0.0,
+    return _circle_item(
+        mavlink.MAV_FRAME_LOCAL_NED, round(x_m * LOCAL_SCALE), round(y_m * LOCAL_SCALE), radius_m
     )
 
 
@@ -242,18 +232,8 @@ def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> Item:
 
 def fence_circle_item(lat_deg: float, lon_deg: float, radius_m: float) -> Item:
     """The fence item of a QGC exclusion circle, as QGC uploads it (``GeoFenceManager::sendToVehicle``)."""
-    return Item(
-        frame=mavlink.MAV_FRAME_GLOBAL,
-        command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
-        param1=float(radius_m),
-        param2=0.0,
-        param3=0.0,
-        param4=0.0,
-        x=round(lat_deg * GLOBAL_SCALE),
-        y=round(lon_deg * GLOBAL_SCALE),
-        z=0.0,
-        autocontinue=0,
-    )
+    x, y = round(lat_deg * GLOBAL_SCALE), round(lon_deg * GLOBAL_SCALE)
+    return _circle_item(mavlink.MAV_FRAME_GLOBAL, x, y, radius_m, autocontinue=0)
 
 
 def _with_home(goals: list[Item], home: Item | None) -> list[Item]:

@@ -43,3 +43,23 @@ def onboard_cmd(channel: str, mav_port: int, state_dir: Path, *extra: str) -> li
         "--state-dir", str(state_dir),
         *extra,
     ]  # fmt: skip
+
+
+def start_vehicle(procs: list[subprocess.Popen[Any]], log: Any, bench: list[str], onboard: list[str]) -> None:
+    """The bench and the firmware as processes (stopped with ``procs``), both writing to ``log``."""
+    procs.append(subprocess.Popen(bench, stdout=log, stderr=subprocess.STDOUT))
+    procs.append(subprocess.Popen(onboard, stdout=log, stderr=subprocess.STDOUT))
+
+
+def upload_arm_start(url: str, tlogs: Path, mission: Path) -> None:
+    """What an operator does step by step with ``auv-gcs``: upload, wait-ready, arm, start; each accepted."""
+    from hil_sim.scenario import run_gcs
+
+    code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
+    assert code == 0 and data["ok"], data
+    code, data = run_gcs(url, tlogs, "wait-ready", "--timeout", "20", timeout_s=20.0)
+    assert code == 0 and data["ready"], data
+    code, data = run_gcs(url, tlogs, "arm")
+    assert code == 0, data
+    code, data = run_gcs(url, tlogs, "start")
+    assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data

@@ -22,7 +22,7 @@ import pytest
 from pymavlink import mavutil
 
 from hil_sim.scenario import free_port, free_udp_port, mission_yaml, run_gcs
-from tests.e2e.procs import bench_cmd, onboard_cmd, processes
+from tests.e2e.procs import bench_cmd, onboard_cmd, processes, start_vehicle, upload_arm_start
 
 pytestmark = pytest.mark.e2e
 
@@ -79,22 +79,10 @@ def test_monitor_shows_the_real_loop_telemetry(tmp_path: Path) -> None:
     tlogs = tmp_path / "tlogs"
     hil_cmd = bench_cmd(channel, f"{START[0]},{START[1]},1.0,{START[2]}", 60)
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
-        procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
-        procs.append(
-            subprocess.Popen(
-                onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
-            )
-        )
-        code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
-        assert code == 0 and data["ok"], data
-        # WHEN the operator waits for the vehicle to be ready (its HEARTBEAT leaves BOOT), arms and starts it
-        # once each, and watches the live telemetry for 2 s
-        code, data = run_gcs(url, tlogs, "wait-ready", "--timeout", "20", timeout_s=20.0)
-        assert code == 0 and data["ready"], data
-        code, data = run_gcs(url, tlogs, "arm")
-        assert code == 0, data
-        code, data = run_gcs(url, tlogs, "start")
-        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
+        start_vehicle(procs, log, hil_cmd, onboard_cmd(channel, mav_port, tmp_path / "state"))
+        # WHEN the operator uploads, waits for the vehicle to be ready (its HEARTBEAT leaves BOOT), arms and
+        # starts it once each, and watches the live telemetry for 2 s
+        upload_arm_start(url, tlogs, mission)
         mon = subprocess.run(
             [sys.executable, "-m", "groundstation", "--connect", url, "--json", "--tlog-dir", str(tlogs),
              "monitor", "--duration", "2"],

@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 
 from hil_sim.scenario import free_port, free_udp_port
-from tests.e2e.procs import bench_cmd, onboard_cmd, processes
+from tests.e2e.procs import bench_cmd, onboard_cmd, processes, start_vehicle
 
 pytestmark = pytest.mark.e2e
 
@@ -71,8 +71,7 @@ def test_fly_a_qgc_plan_to_complete_then_ctrl_c_holds(tmp_path: Path) -> None:
     hil_cmd = bench_cmd(channel, "0,0,1.0,0", 120, f"--truth-log={truth}")
     onboard = onboard_cmd(channel, mav_port, tmp_path / "state")
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
-        procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
-        procs.append(subprocess.Popen(onboard, stdout=log, stderr=subprocess.STDOUT))
+        start_vehicle(procs, log, hil_cmd, onboard)
         # GIVEN the bench and the firmware; WHEN the operator flies a QGroundControl plan with one command
         plan = plan_file(tmp_path / "short.plan", (12.0, 0.0), (6.0, 8.0))
         t0 = time.monotonic()

@@ -47,8 +47,8 @@ from groundstation.map.state import PLANNED_PATH_FILE, MapModel
 from groundstation.mavclient import Item, LinkError, MavClient
 from groundstation.mission_files import goal_item, home_item, obstacle_item
 from groundstation.tlog import read_tlog
-from hil_sim.scenario import free_port, free_udp_port, run_gcs
-from tests.e2e.procs import bench_cmd, onboard_cmd, processes
+from hil_sim.scenario import free_port, free_udp_port
+from tests.e2e.procs import bench_cmd, onboard_cmd, processes, start_vehicle, upload_arm_start
 
 pytestmark = pytest.mark.e2e
 
@@ -206,20 +206,8 @@ def flight(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Flight]:
     tlogs = tmp / "tlogs"
     hil_cmd = bench_cmd(channel, ",".join(str(v) for v in START), 90)
     with processes() as procs, open(tmp / "procs.log", "w") as log:
-        procs.append(subprocess.Popen(hil_cmd, stdout=log, stderr=subprocess.STDOUT))
-        procs.append(
-            subprocess.Popen(
-                onboard_cmd(channel, mav_port, tmp / "state"), stdout=log, stderr=subprocess.STDOUT
-            )
-        )
-        code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
-        assert code == 0 and data["ok"], data
-        code, data = run_gcs(url, tlogs, "wait-ready", "--timeout", "20", timeout_s=20.0)
-        assert code == 0 and data["ready"], data
-        code, data = run_gcs(url, tlogs, "arm")
-        assert code == 0, data
-        code, data = run_gcs(url, tlogs, "start")
-        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
+        start_vehicle(procs, log, hil_cmd, onboard_cmd(channel, mav_port, tmp / "state"))
+        upload_arm_start(url, tlogs, mission)
         map_url = start_map(
             procs, "--connect", url, "--tlog-dir", str(tlogs), "map", "--port", str(free_port()), log=log
         )
