@@ -76,7 +76,10 @@ def test_a_can_flood_of_unknown_ids_starves_neither_the_tick_nor_the_actuators(t
     # ... the actuators never went to failsafe, no overrun came in a row, and the mission flew on
     assert b["failsafe_timeouts"] == 0 and not any(r["failsafe"] == "1" for r in rows), b
     assert o["max_consecutive_overruns"] <= 1, o
-    assert o["final_state"] in ("RUNNING", "COMPLETE"), (o, err[-2000:])
+    # the onboard's state as the bench heard it, tick by tick while it ran (the onboard's own final state
+    # comes after the bench has stopped, when the sensors going stale abort it: that is no flood effect)
+    states = [r["onboard_state"] for r in rows if r["onboard_state"]]
+    assert "ABORT" not in states and states[-1] in ("RUNNING", "COMPLETE"), (states[-5:], o, err[-2000:])
     assert max(float(r["x_m"]) for r in rows) > 15.0
     # and not one flood frame reached the firmware's process: the hub filtered them
     assert o["frames_rejected"] == {} and o["drains_at_budget"] == 0, o
