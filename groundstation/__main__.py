@@ -115,8 +115,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="cmd", required=True)
     p = sub.add_parser(
         "upload",
-        help="upload goals (and obstacles, if the file has any: the fence first; if the goals are then "
-        "refused, the previous fence is restored, so a refused upload changes nothing)",
+        help="upload goals (and obstacles, if the file has any: goals and fence in one transfer, judged as "
+        "one: both in force, or, refused, neither, so a refused upload changes nothing)",
     )
     p.add_argument("file", type=Path)
     p = sub.add_parser("download", help="download the mission and fence")
@@ -253,32 +253,33 @@ def _upload_text(r: dict[str, Any]) -> str:
 def _upload_plans(
     client: MavClient, out: _Out, goals: list[Item], fences: list[Item], with_goals: bool, with_fence: bool
 ) -> tuple[list[dict[str, Any]], str]:
-    """Upload the fence (first) and the goals; a refused goals upload restores the previous fence.
+    """Upload the goals, the fence, or both; returns the results (mission first) and, when any was not
+    accepted, a note on what is in force on the vehicle now (read back from it).
 
-    The vehicle checks a fence against its stored goals and goals against its stored fence, and a refused
-    upload changes nothing; uploading the fence first and putting the old one back when the goals are then
-    refused keeps the pair as it was (a fence change alone keeps the mission's progress). Returns the
-    results (mission first) and a note on the restore ("" if none was needed).
+    Both go in ONE transfer of type MAV_MISSION_TYPE_ALL (the goals, then the fence circles; the vehicle's
+    MAVLink profile, :mod:`onboard.adapters.mavlink.mission_protocol`): the vehicle judges them as one unit
+    and puts both in force or, refused, neither, so a refused upload changes nothing, also while the vehicle
+    runs (two transfers would put the first in force before the second is judged). The one verdict is
+    reported for each part.
     """
-    results: list[dict[str, Any]] = []
-    note = ""
-    old_fence: list[Item] | None = None
-    if with_fence:
-        if with_goals:
-            old_fence = client.download(mavlink.MAV_MISSION_TYPE_FENCE)
-        results.append(_upload(client, out, fences, mavlink.MAV_MISSION_TYPE_FENCE, "fence"))
-        if not results[-1]["ok"]:
-            return results, note
-    if with_goals:
-        results.insert(0, _upload(client, out, goals, mavlink.MAV_MISSION_TYPE_MISSION, "mission"))
-        if not results[0]["ok"] and old_fence is not None:
-            back = client.upload(old_fence, mavlink.MAV_MISSION_TYPE_FENCE)
-            note = (
-                f"the previous fence ({len(old_fence)} items) was restored"
-                if back.ok
-                else f"restoring the previous fence failed ({back.result_name}: {back.reason})"
-            )
-    return results, note
+    results: list[dict[str, Any]]
+    if with_goals and with_fence:
+        r = _upload(client, out, goals + fences, mavlink.MAV_MISSION_TYPE_ALL, "mission and fence")
+        results = [dict(r, type="mission", items=len(goals)), dict(r, type="fence", items=len(fences))]
+    elif with_fence:
+        results = [_upload(client, out, fences, mavlink.MAV_MISSION_TYPE_FENCE, "fence")]
+    elif with_goals:
+        results = [_upload(client, out, goals, mavlink.MAV_MISSION_TYPE_MISSION, "mission")]
+    else:
+        return [], ""
+    if all(r["ok"] for r in results):
+        return results, ""
+    try:
+        n_goals = len(client.download(mavlink.MAV_MISSION_TYPE_MISSION))
+        n_fence = len(client.download(mavlink.MAV_MISSION_TYPE_FENCE))
+    except LinkError as exc:
+        return results, f"what is in force on the vehicle could not be read back: {exc}"
+    return results, f"in force on the vehicle: {n_goals} mission items, {n_fence} fence circles"
 
 
 def _session_tlog(tlog_dir: Path) -> Path:
@@ -384,7 +385,7 @@ def _run(
             "result": refused["result"] if refused else "MAV_MISSION_ACCEPTED",
             "reason": refused["reason"] if refused else "",
             "results": results,
-            "restored": note,
+            "in_force": note,
             "tlog": str(tlog),
         }
         out.done(data, text)
@@ -471,7 +472,7 @@ def _fly(
         )
         code = EXIT_ERROR if refused["timeout"] else EXIT_REFUSED
         return stop(
-            code, {"ok": False, "step": "upload", "reason": why, "restored": note}, f"[red]{_esc(why)}[/]"
+            code, {"ok": False, "step": "upload", "reason": why, "in_force": note}, f"[red]{_esc(why)}[/]"
         )
     if not out.as_json:
         out.console.print("\n".join(_upload_text(r) for r in results))

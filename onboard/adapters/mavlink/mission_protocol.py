@@ -24,6 +24,17 @@ MISSION_ITEM_INT; MAVProxy reads a local MISSION_ITEM_INT's x/y as degrees * 1e7
 - Download is stateless: MISSION_REQUEST_LIST -> MISSION_COUNT; each MISSION_REQUEST_INT is answered with
   MISSION_ITEM_INT, each MISSION_REQUEST with MISSION_ITEM (or MISSION_ACK INVALID_SEQUENCE).
 
+The whole plan in one transfer (MAV_MISSION_TYPE_ALL): goals and fence are one unit, judged together, but
+MAVLink carries them in two transfers, each acknowledged on its own, and an ACCEPTED one is in force at its
+ACK: a fence that goes first is in force (a running vehicle re-plans round it) before the goals that come
+with it are judged. So an upload may carry both: MISSION_COUNT with ``mission_type`` MAV_MISSION_TYPE_ALL
+(MAVLink names it for MISSION_CLEAR_ALL only; stock ground stations never upload it), then the items, each
+MAV_CMD_NAV_WAYPOINT a goal and each MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION a fence circle (:func:`plan_of_item`;
+our ground station sends the goals first, then the fence), every request, item and the one final MISSION_ACK
+of type ALL. The goals and the fence it carries replace the stored MISSION and FENCE plans together, or,
+refused, neither (an empty fence in it clears the stored fence; a count of 0 clears both). Each plan is
+downloaded by its own type, as ever. A MISSION or FENCE transfer still replaces its own plan alone.
+
 Positions: ``MAV_FRAME_LOCAL_NED`` with x, y = metres * 1e4 (MISSION_ITEM_INT) and z = depth (m); the global
 frames (GLOBAL, GLOBAL_INT, GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT: lat/lon * 1e7) are converted to the
 local frame about the configured origin with a flat-earth projection, and depth = -altitude (as ArduSub
@@ -224,13 +235,27 @@ def local_to_global(x_m: float, y_m: float, limits: MissionLimits) -> tuple[floa
     return lat_deg, (lon_deg + 180.0) % 360.0 - 180.0
 
 
+def plan_of_item(item: MissionItem) -> int:
+    """The plan an item of a whole-plan (MAV_MISSION_TYPE_ALL) upload belongs to: a fence circle is FENCE,
+    anything else MISSION (where :func:`check_item` judges its command)."""
+    return TYPE_FENCE if item.command == mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION else TYPE_MISSION
+
+
+def split_plans(items: tuple[MissionItem, ...]) -> dict[int, tuple[MissionItem, ...]]:
+    """The MISSION and FENCE plans of a whole-plan upload (each keeps the items' order)."""
+    return {mt: tuple(i for i in items if plan_of_item(i) == mt) for mt in (TYPE_MISSION, TYPE_FENCE)}
+
+
 def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq: int | None = None) -> int:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing format check on one item.
 
     Format only: the command, the frame, every number NaN or finite, lat/lon within range in the global
     frames. Whether the vehicle can fly it (area, depth, yaw, radius, counts, plan) is the validator's.
     With ``seq`` given, a home item at seq 0 (:func:`is_home_item`) gets :func:`check_home_item` instead.
+    An item of a whole-plan upload (MAV_MISSION_TYPE_ALL) is checked as an item of its plan.
     """
+    if mission_type == TYPE_ALL:
+        return check_item(item, plan_of_item(item), limits, seq)
     if seq is not None and is_home_item(item, seq, mission_type):
         return check_home_item(item)
     if mission_type == TYPE_MISSION:
@@ -357,8 +382,8 @@ class MissionStats:
 class Candidate:
     """A complete transfer waiting for its judgement: the new plan of each type it changes.
 
-    ``mission_type`` is the type the final MISSION_ACK carries (MAV_MISSION_TYPE_ALL for a clear of both);
-    ``plans`` holds the new items of every type it replaces (both for a clear of ALL).
+    ``mission_type`` is the type the final MISSION_ACK carries (MAV_MISSION_TYPE_ALL for a clear of both or a
+    whole-plan upload); ``plans`` holds the new items of every type it replaces (both for either of those).
     """
 
     sender: Sender
@@ -550,7 +575,7 @@ class MissionServer:
         up = self._upload
         if up is not None and up.sender != sender:
             return self._busy(sender, mt)
-        if mt not in (TYPE_MISSION, TYPE_FENCE):
+        if mt not in (TYPE_MISSION, TYPE_FENCE, TYPE_ALL):
             self.stats.uploads_rejected += 1
             return [self._ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mt)]
         if up is not None and up.mission_type == mt and up.count == count and not up.items:
@@ -559,8 +584,8 @@ class MissionServer:
             self.stats.rerequests += 1
             return [self._request(up)]
         self._upload = None  # a new MISSION_COUNT from the uploader restarts its upload
-        if count == 0:  # an empty upload clears the plan
-            return self._judge(sender, mt, {mt: ()})
+        if count == 0:  # an empty upload clears the plan (both for a whole-plan upload)
+            return self._judge(sender, mt, split_plans(()) if mt == TYPE_ALL else {mt: ()})
         self._upload = _Upload(sender, mt, count, last_rx_s=now_s, last_req_s=now_s)
         return [self._request(self._upload)]
 
@@ -616,7 +641,9 @@ class MissionServer:
         up.last_req_s = now_s
         if len(up.items) < up.count:
             return [self._request(up)]
-        return self._judge(sender, mt, {mt: tuple(up.items)}, final=(up.count, item))
+        items = tuple(up.items)
+        plans = split_plans(items) if mt == TYPE_ALL else {mt: items}
+        return self._judge(sender, mt, plans, final=(up.count, item))
 
     def _on_download_request(
         self, msg: mavlink.MAVLink_message, sender: Sender

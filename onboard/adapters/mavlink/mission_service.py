@@ -3,7 +3,9 @@
 A complete transfer (the last item of an upload, MISSION_COUNT 0, MISSION_CLEAR_ALL) goes through:
 
 1. the candidate :class:`~onboard.core.mission.model.Mission`: the new items plus the stored plan of the
-   OTHER type (goals and fence are one unit; a clear of MAV_MISSION_TYPE_ALL clears both, one candidate);
+   OTHER type (goals and fence are one unit; a clear of MAV_MISSION_TYPE_ALL clears both, and a whole-plan
+   upload of type ALL (:mod:`~onboard.adapters.mavlink.mission_protocol`) replaces both: one candidate, one
+   verdict, so goals refused leave the fence that came with them out of force too);
 2. the validator given to the link (``Callable[[Mission], MissionCheck]``, normally
    :func:`onboard.core.mission.validate.check_mission` bound to the configuration) in a worker thread,
    with the deadline ``validate_timeout_s``; a problem ends the transfer with the MAV_MISSION code of its

@@ -226,7 +226,14 @@ class ScriptedVehicle:
     def _finish_upload(self, src: tuple[int, int]) -> None:
         mt = self._rx["type"]
         result, reason = self.upload_answers.get(mt, (mavlink.MAV_MISSION_ACCEPTED, ""))
-        if result == mavlink.MAV_MISSION_ACCEPTED:
+        if result == mavlink.MAV_MISSION_ACCEPTED and mt == mavlink.MAV_MISSION_TYPE_ALL:  # goals and fence
+            fence = mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+            for t, want in (
+                (mavlink.MAV_MISSION_TYPE_MISSION, False),
+                (mavlink.MAV_MISSION_TYPE_FENCE, True),
+            ):
+                self.plans[t] = [it for it in self._rx["items"] if (it.command == fence) == want]
+        elif result == mavlink.MAV_MISSION_ACCEPTED:
             self.plans[mt] = list(self._rx["items"])
         self.mav.send(mavlink.MAVLink_mission_ack_message(*src, result, mt))
         if reason:
@@ -335,31 +342,37 @@ def test_upload_refusal_prints_the_mission_ack_and_the_reason(tmp_path: Path, ca
     assert f"MAV_MISSION_INVALID_PARAM7: {reason}" in text
 
 
-def test_upload_of_goals_and_a_bad_fence_changes_nothing(tmp_path: Path, capsys) -> None:
+def test_upload_of_goals_and_fence_is_one_transfer_and_a_refusal_changes_nothing(
+    tmp_path: Path, capsys
+) -> None:
     f = tmp_path / "m.yaml"
     f.write_text(YAML)
     with ScriptedVehicle() as v:
-        # GIVEN a vehicle that refuses the fence WHEN goals and fence are uploaded
-        why = "obstacle 0: radius 3 m covers goal 1"
-        v.upload_answers[mavlink.MAV_MISSION_TYPE_FENCE] = (mavlink.MAV_MISSION_INVALID_PARAM1, why)
-        code, out = gcs(capsys, v, tmp_path, "upload", str(f))
-        # THEN exit 1 with the fence's reason, and the goals were never sent
-        assert code == 1 and out["reason"] == why and [r["type"] for r in out["results"]] == ["fence"]
-        assert (
-            v.uploads == [mavlink.MAV_MISSION_TYPE_FENCE] and v.plans[mavlink.MAV_MISSION_TYPE_MISSION] == []
-        )
-        # GIVEN a stored fence and a vehicle that accepts fences but refuses the goals
-        del v.upload_answers[mavlink.MAV_MISSION_TYPE_FENCE]
+        # GIVEN a stored mission and fence, and a vehicle that refuses the next whole-plan upload
         old = tmp_path / "old.yaml"
-        old.write_text("goals: []\nobstacles:\n  - {x_m: -40.0, y_m: 7.0, radius_m: 2.0}\n")
-        assert gcs(capsys, v, tmp_path, "fence", str(old))[0] == 0
-        v.upload_answers[mavlink.MAV_MISSION_TYPE_MISSION] = (mavlink.MAV_MISSION_ERROR, "goal 1: no path")
+        old.write_text(
+            "goals:\n  - {x_m: 1.0, y_m: 2.0, depth_m: 1.0}\n"
+            "obstacles:\n  - {x_m: -40.0, y_m: 7.0, radius_m: 2.0}\n"
+        )
+        code, out = gcs(capsys, v, tmp_path, "upload", str(old))
+        assert code == 0 and [(r["type"], r["items"], r["ok"]) for r in out["results"]] == [
+            ("mission", 1, True),
+            ("fence", 1, True),
+        ]
+        assert v.uploads == [mavlink.MAV_MISSION_TYPE_ALL]  # goals and fence: one transfer, one verdict
+        why = "goal 1 refused: no path"
+        v.upload_answers[mavlink.MAV_MISSION_TYPE_ALL] = (mavlink.MAV_MISSION_ERROR, why)
+        # WHEN goals and fence are uploaded
         code, out = gcs(capsys, v, tmp_path, "upload", str(f))
-        # THEN exit 1 with the goals' reason and the previous fence is back
-        assert code == 1 and out["reason"] == "goal 1: no path" and out["restored"]
-        assert [r["type"] for r in out["results"]] == ["mission", "fence"]
+        # THEN exit 1 with the vehicle's reason for both parts, one transfer, and what is in force said
+        assert code == 1 and out["reason"] == why and [r["ok"] for r in out["results"]] == [False, False]
+        assert v.uploads == [mavlink.MAV_MISSION_TYPE_ALL] * 2
+        assert out["in_force"] == "in force on the vehicle: 1 mission items, 1 fence circles"
         fence = v.plans[mavlink.MAV_MISSION_TYPE_FENCE]
         assert [(it.x, it.y, it.param1) for it in fence] == [(-400000, 70000, 2.0)]
+        # and a fence alone is a FENCE transfer
+        assert gcs(capsys, v, tmp_path, "fence", str(f))[0] == 0
+        assert v.uploads[-1] == mavlink.MAV_MISSION_TYPE_FENCE
 
 
 def test_statustext_chunks_are_reassembled() -> None:

@@ -309,6 +309,37 @@ def test_clear_all_clears_mission_and_fence() -> None:
     assert srv.mission().goals == () and srv.mission().obstacles == ()
 
 
+def test_a_whole_plan_upload_is_one_candidate_and_a_refusal_keeps_both() -> None:
+    ALL = mavlink.MAV_MISSION_TYPE_ALL
+    circle = wp(x_m=-30.0, y_m=0.0, command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=2.0)
+    srv = MissionServer(LIMITS)
+    upload(srv, [wp(1.0)])
+    upload(srv, [circle], TYPE_FENCE)
+    new_circle = wp(x_m=0.0, y_m=0.0, command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=5.0)
+    # GIVEN goals and a fence in one transfer of type ALL: every request and the final ACK are of type ALL
+    out = srv.handle(count_msg(3, ALL), GCS, 0.0)
+    for i, it in enumerate([wp(2.0), wp(3.0), new_circle]):
+        assert only(out).get_type() == "MISSION_REQUEST_INT" and only(out).mission_type == ALL
+        out = srv.handle(item_msg(i, it, ALL), GCS, 0.0)
+    assert out == []
+    c = srv.take_candidate()  # one candidate for both plans
+    assert c is not None and c.mission_type == ALL
+    assert c.plans == {TYPE_MISSION: (wp(2.0), wp(3.0)), TYPE_FENCE: (new_circle,)}
+    # WHEN it is refused THEN neither plan changed
+    ack = only(srv.finish(mavlink.MAV_MISSION_ERROR))
+    assert ack.type == mavlink.MAV_MISSION_ERROR and ack.mission_type == ALL
+    assert srv.items(TYPE_MISSION) == (wp(1.0),) and srv.items(TYPE_FENCE) == (circle,)
+    # an item no plan takes ends it with the code of its plan's check; nothing changes
+    poly = wp(command=mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, param1=4.0)
+    assert only(upload(srv, [wp(2.0), poly], ALL)).type == mavlink.MAV_MISSION_UNSUPPORTED
+    # accepted: both replaced (goals only in it: the fence cleared); a count of 0 clears both
+    assert only(upload(srv, [wp(4.0)], ALL)).type == ACCEPTED
+    assert srv.items(TYPE_MISSION) == (wp(4.0),) and srv.items(TYPE_FENCE) == ()
+    assert srv.handle(count_msg(0, ALL), GCS, 0.0) == []
+    c = srv.take_candidate()
+    assert c is not None and c.plans == {TYPE_MISSION: (), TYPE_FENCE: ()}
+
+
 def test_messages_for_another_system_are_ignored() -> None:
     srv = MissionServer(LIMITS)
     assert srv.handle(mavlink.MAVLink_mission_count_message(7, 1, 1, 0), GCS, 0.0) == []
