@@ -26,9 +26,10 @@ import random
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import common as mavlink
+from rich.text import Text
 
 from groundstation import map as gcs_map
 from groundstation import mission_files
@@ -42,6 +43,10 @@ from groundstation.mavclient import (
     UnknownParameter,
     state_from_heartbeat,
 )
+from groundstation.text import labelled, lines, plain
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
 
 EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 EXIT_STATUS = """exit status:
@@ -197,11 +202,29 @@ class _Out:
 
         self.console = Console(stderr=as_json, soft_wrap=True)  # a line is one line, however long
 
-    def done(self, data: dict[str, Any], text: str) -> None:
+    def done(self, data: dict[str, Any], text: str | Text) -> None:
+        """``data`` as a JSON line (``--json``), else ``text`` (:meth:`show`)."""
         if self.as_json:
             sys.stdout.write(json.dumps(data, default=str) + "\n")
         else:
-            self.console.print(text)
+            self.show(text)
+
+    def show(self, text: str | Text) -> None:
+        """``text`` on the console, never as markup: a ``str`` is one line, shown as it is but for the
+        control characters of the wire's words in it (:func:`groundstation.text.plain`); several lines and
+        styled parts come as rich Text (:mod:`groundstation.text`'s ``lines`` and ``labelled``)."""
+        self.console.print(text if isinstance(text, Text) else plain(text))
+
+    def progress(self) -> Progress:
+        """rich's progress bar, its description (a file name may be the vehicle's) never markup."""
+        from rich.progress import Progress, TextColumn
+
+        return Progress(
+            TextColumn("{task.description}", markup=False),
+            *Progress.get_default_columns()[1:],
+            console=self.console,
+            transient=True,
+        )
 
 
 def _load_key(path: Path | None) -> bytes | None:
@@ -221,9 +244,7 @@ def _upload(client: MavClient, out: _Out, items: list[Item], mission_type: int, 
     if out.as_json or not items:
         r = client.upload(items, mission_type)
     else:
-        from rich.progress import Progress
-
-        with Progress(console=out.console, transient=True) as prog:
+        with out.progress() as prog:
             task = prog.add_task(f"upload {label}", total=len(items))
             r = client.upload(items, mission_type, progress=lambda done, n: prog.update(task, completed=done))
     return {
@@ -237,16 +258,9 @@ def _upload(client: MavClient, out: _Out, items: list[Item], mission_type: int, 
     }
 
 
-def _esc(text: str) -> str:
-    """The vehicle's words printed as they are (no rich markup)."""
-    from rich.markup import escape
-
-    return escape(text)
-
-
 def _upload_text(r: dict[str, Any]) -> str:
     verdict = "accepted" if r["ok"] else "REFUSED"
-    why = f": {_esc(r['reason'])}" if r["reason"] else ""
+    why = f": {r['reason']}" if r["reason"] else ""
     return f"{r['type']}: {r['items']} items {verdict} ({r['result']}{why}, {r['elapsed_s']:.3f} s)"
 
 
@@ -324,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             counts = plot_tlog(args.tlog, target)
         except (OSError, ValueError) as exc:
-            out.done({"ok": False, "error": str(exc)}, f"[red]error:[/] {exc}")
+            out.done({"ok": False, "error": str(exc)}, labelled("error:", "red", exc))
             return 2
         out.done({"ok": True, "output": str(target), **counts}, f"wrote {target} ({counts})")
         return 0
@@ -335,7 +349,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.cmd in ("upload", "fence", "fly"):
             goals, fences = mission_files.load(args.file)
     except (ValueError, OSError) as exc:
-        out.done({"ok": False, "error": str(exc)}, f"[red]error:[/] {exc}")
+        out.done({"ok": False, "error": str(exc)}, labelled("error:", "red", exc))
         return 2
     tlog_dir = args.tlog_dir or default_tlog_dir()
     tlog_dir.mkdir(parents=True, exist_ok=True)
@@ -357,15 +371,15 @@ def main(argv: list[str] | None = None) -> int:
                 return _wait_ready(client, out, max(0.0, args.ready_timeout - (time.monotonic() - t0)), t0)
             return _run(args, client, out, goals, fences, tlog)
     except UnknownParameter as exc:
-        out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, f"[red]refused:[/] {exc}")
+        out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, labelled("refused:", "red", exc))
         return EXIT_REFUSED
     except LinkError as exc:
-        out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, f"[red]error:[/] {exc}")
+        out.done({"ok": False, "error": str(exc), "tlog": str(tlog)}, labelled("error:", "red", exc))
         return EXIT_ERROR
     except OSError as exc:  # the link could not be opened: e.g. the port is taken by another station
         why = exc.strerror or str(exc)
         text = f"cannot open {args.connect}: {why}"
-        out.done({"ok": False, "error": text, "tlog": str(tlog)}, f"[red]error:[/] {_esc(text)}")
+        out.done({"ok": False, "error": text, "tlog": str(tlog)}, labelled("error:", "red", text))
         return EXIT_ERROR
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
@@ -379,7 +393,7 @@ def _run(
         results, note = _upload_plans(client, out, goals, fences, args.cmd == "upload", with_fence)
         ok = all(r["ok"] for r in results)
         refused = next((r for r in results if not r["ok"]), None)
-        text = "\n".join(_upload_text(r) for r in results) + (f"\n{_esc(note)}" if note else "")
+        text = lines([*map(_upload_text, results), *([note] if note else [])])
         data = {
             "ok": ok,
             "result": refused["result"] if refused else "MAV_MISSION_ACCEPTED",
@@ -402,7 +416,7 @@ def _run(
                 args.file.write_text(text, encoding="utf-8")
             except OSError as exc:
                 why = f"cannot write {args.file}: {exc.strerror or exc}"
-                out.done({"ok": False, "error": why}, f"[red]error:[/] {_esc(why)}")
+                out.done({"ok": False, "error": why}, labelled("error:", "red", why))
                 return EXIT_ERROR
         data = {
             "ok": True,
@@ -424,7 +438,7 @@ def _run(
         return 0
     if args.cmd == "clear":
         r = client.clear(mavlink.MAV_MISSION_TYPE_ALL)
-        why = f": {_esc(r.reason)}" if r.reason else ""
+        why = f": {r.reason}" if r.reason else ""
         out.done({"ok": r.ok, "result": r.result_name, "reason": r.reason}, f"clear: {r.result_name}{why}")
         return EXIT_OK if r.ok else EXIT_REFUSED
     if args.cmd in COMMANDS:
@@ -437,7 +451,7 @@ def _run(
             "reason": ack.reason,
             "texts": list(ack.texts),
         }
-        out.done(data, f"{args.cmd}: {ack.result_name}" + (f": {_esc(ack.reason)}" if ack.reason else ""))
+        out.done(data, f"{args.cmd}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else ""))
         return exit_code_of_command(ack.result)
     if args.cmd == "params":
         return _params(args, client, out)
@@ -460,7 +474,7 @@ def _fly(
     the watch (:mod:`groundstation.fly`)."""
     from groundstation import fly
 
-    def stop(code: int, data: dict[str, Any], text: str) -> int:
+    def stop(code: int, data: dict[str, Any], text: str | Text) -> int:
         out.done({"event": "end", "tlog": str(tlog), **data}, text)
         return code
 
@@ -471,15 +485,16 @@ def _fly(
             f": {refused['reason']}" if refused["reason"] else ""
         )
         code = EXIT_ERROR if refused["timeout"] else EXIT_REFUSED
+        text = why + (f" ({note})" if note else "")  # what is in force after the refusal, read back
         return stop(
-            code, {"ok": False, "step": "upload", "reason": why, "in_force": note}, f"[red]{_esc(why)}[/]"
+            code, {"ok": False, "step": "upload", "reason": why, "in_force": note}, plain(text, "red")
         )
     if not out.as_json:
-        out.console.print("\n".join(_upload_text(r) for r in results))
+        out.show(lines(map(_upload_text, results)))
     ready, _hb, why = client.wait_ready(args.ready_timeout)
     if not ready:
         text = f"not ready after {args.ready_timeout:g} s" + (f": {why}" if why else "")
-        return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, f"[red]{_esc(text)}[/]")
+        return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, plain(text, "red"))
     offset = 1 if mission_files.is_home_placeholder(goals) else 0
     n_goals = len(goals) - offset
     # the local goals' (x, y), for the distance to go (a global goal's origin is the vehicle's: None)
@@ -495,9 +510,9 @@ def _fly(
             if not ack.ok:
                 text = f"{step}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else "")
                 data = {"ok": False, "step": step, "result": ack.result_name, "reason": ack.reason}
-                return stop(exit_code_of_command(ack.result), data, f"[red]{_esc(text)}[/]")
+                return stop(exit_code_of_command(ack.result), data, plain(text, "red"))
             if not out.as_json:
-                out.console.print(f"{step}: {ack.result_name}")
+                out.show(f"{step}: {ack.result_name}")
         code, data = fly.watch(
             client, n_goals, out.console, home_offset=offset, goal_xy_m=xy, as_json=out.as_json
         )
@@ -514,25 +529,29 @@ def _fly(
             EXIT_INTERRUPTED, {"ok": False, "step": "interrupted", "hold": ok, "reason": answer}, text
         )
     if code == EXIT_OK:
-        return stop(
-            code, {**data, "step": "done"}, f"[green]COMPLETE[/]: {n_goals} of {n_goals} goals reached"
-        )
+        done = f"{n_goals} of {n_goals} goals reached"
+        return stop(code, {**data, "step": "done"}, labelled("COMPLETE:", "green", done))
     text = f"{data['state']}: {data['reason'] or 'the vehicle stopped the mission'}"
-    return stop(code, {**data, "step": "watch"}, f"[red]{_esc(text)}[/]")
+    return stop(code, {**data, "step": "watch"}, plain(text, "red"))
 
 
 def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
     """``logs``: the flight logs in the vehicle's ``logs/`` over MAVLink FTP; ``get`` writes one whole."""
     entries = [(name, size) for kind, name, size in client.list_dir("logs") if kind == "F"]
     if args.action is None:
-        text = "\n".join(f"{name}  {size / 1e6:.2f} MB" for name, size in entries) or "no flight logs"
+        text = lines(f"{name}  {size / 1e6:.2f} MB" for name, size in entries) or "no flight logs"
         out.done({"ok": True, "logs": [{"name": n, "size": s} for n, s in entries]}, text)
         return EXIT_OK
     if not entries:
-        out.done({"ok": False, "error": "no flight logs on the vehicle"}, "[red]error:[/] no flight logs")
+        text = labelled("error:", "red", "no flight logs")
+        out.done({"ok": False, "error": "no flight logs on the vehicle"}, text)
         return EXIT_ERROR  # as for a name not on the vehicle: nothing to download
     name = args.name or entries[-1][0]
-    if Path(name).name != name or name in ("", ".", ".."):  # a name the vehicle listed: never a path
+    if Path(name).name != name or name in ("", ".", ".."):  # a log's name, never a path
+        if args.name:
+            why = f"not a log name: {name!r}"
+            out.done({"ok": False, "error": why}, labelled("error:", "red", why))
+            return EXIT_ERROR
         raise LinkError(f"the vehicle listed a log name that is a path: {name!r}")
     target = args.output or Path(name)
     if target.is_dir():
@@ -540,10 +559,8 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
     if out.as_json:
         data = client.read_file(f"logs/{name}")
     else:
-        from rich.progress import Progress
-
-        with Progress(console=out.console, transient=True) as prog:
-            task = prog.add_task(f"{name}", total=None)
+        with out.progress() as prog:
+            task = prog.add_task(name, total=None)
             data = client.read_file(
                 f"logs/{name}", progress=lambda done, n: prog.update(task, completed=done, total=n)
             )
@@ -551,7 +568,7 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
         target.write_bytes(data)
     except OSError as exc:
         text = f"cannot write {target}: {exc.strerror or exc}"
-        out.done({"ok": False, "error": text}, f"[red]error:[/] {_esc(text)}")
+        out.done({"ok": False, "error": text}, labelled("error:", "red", text))
         return EXIT_ERROR
     out.done(
         {"ok": True, "name": name, "file": str(target), "bytes": len(data)},
@@ -578,7 +595,7 @@ def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> in
     if ready:
         out.done(data, f"ready: {status} ({state}{', armed' if armed else ''})")
         return EXIT_OK
-    text = f"not ready after {data['waited_s']:g} s: {status} ({state})" + (f": {_esc(why)}" if why else "")
+    text = f"not ready after {data['waited_s']:g} s: {status} ({state})" + (f": {why}" if why else "")
     out.done(data, text)
     return EXIT_NOT_NOW
 
@@ -593,26 +610,28 @@ def _params(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
 
             table = Table("name", "value")
             for k, v in values.items():
-                table.add_row(k, f"{v:g}")
+                table.add_row(plain(k), f"{v:g}")
             out.console.print(table)
         return 0
     if not args.name:
-        out.done({"ok": False, "error": "parameter name missing"}, "[red]error:[/] parameter name missing")
+        out.done(
+            {"ok": False, "error": "parameter name missing"},
+            labelled("error:", "red", "parameter name missing"),
+        )
         return 2
     if args.action == "get":
         v = client.param_get(args.name)
         out.done({"ok": True, "name": args.name, "value": v}, f"{args.name} = {v:g}")
         return 0
     if args.value is None:
-        out.done({"ok": False, "error": "value missing"}, "[red]error:[/] value missing")
+        out.done({"ok": False, "error": "value missing"}, labelled("error:", "red", "value missing"))
         return 2
     t_sent = time.monotonic()
     ok, v = client.param_set(args.name, args.value)
     why = "" if ok else client.reason_after(t_sent, time.monotonic())  # PARAM_SET has no ACK: its STATUSTEXT
     out.done(
         {"ok": ok, "name": args.name, "value": v, "reason": why},
-        f"{args.name} = {v:g}"
-        + ("" if ok else f" (refused {args.value:g}{': ' + _esc(why) if why else ''})"),
+        f"{args.name} = {v:g}" + ("" if ok else f" (refused {args.value:g}{': ' + why if why else ''})"),
     )
     return EXIT_OK if ok else EXIT_REFUSED
 

@@ -24,17 +24,26 @@ from groundstation.mission_files import goal_item
 from groundstation.relay import LossyRelay
 
 
-def start_vehicle(state_dir: Path, timeout_s: float = 10.0) -> tuple[subprocess.Popen[str], int]:
-    """Start the standalone vehicle endpoint; returns the process and its UDP port."""
+def start_vehicle(
+    state_dir: Path,
+    timeout_s: float = 10.0,
+    *,
+    endpoint: str = "udpin:127.0.0.1:0",
+    time_scale: float = 1.0,
+) -> tuple[subprocess.Popen[str], int]:
+    """Start the standalone vehicle endpoint (``endpoint``: ``udpout:HOST:PORT`` sends to a ground station
+    listening there); returns the process and its UDP port (the ``udpout`` socket's own port for that)."""
     proc = subprocess.Popen(
         [
             sys.executable,
             "-m",
             "onboard.app.standalone",
             "--endpoint",
-            "udpin:127.0.0.1:0",
+            endpoint,
             "--state-dir",
             str(state_dir),
+            "--time-scale",
+            f"{time_scale:g}",
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

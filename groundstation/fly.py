@@ -31,6 +31,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 
 from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.text import labelled, plain
 
 EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 LINK_LOST_S = 5.0
@@ -140,8 +141,8 @@ def watch(
     bar = None
     if not as_json:
         bar = Progress(
-            TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[info]}"),
-            console=console, transient=False,
+            TextColumn("[bold]{task.description}"), BarColumn(),
+            TextColumn("{task.fields[info]}", markup=False), console=console, transient=False,
         )  # fmt: skip
         bar.start()
         task = bar.add_task("flying", total=goals, info="")
@@ -158,12 +159,12 @@ def watch(
                         t_state = now
                 if m.get_type() == "MISSION_ITEM_REACHED" and bar is not None:
                     index = int(m.seq) - home_offset  # the vehicle's own numbering (from 0)
-                    bar.console.print(f"goal {index} reached ({p.reached} of {goals})")
+                    bar.console.print(plain(f"goal {index} reached ({p.reached} of {goals})"))
             if p.state in FLYING:
                 started = True
             if bar is not None:
                 for text in client.texts_since(texts_from):  # each text of the vehicle once, whole
-                    bar.console.print(f"[dim]vehicle:[/] {text.text}")
+                    bar.console.print(labelled("vehicle:", "dim", text.text))  # text, never markup
                     texts_from = text.t_s + 1e-9
                 bar.update(task, completed=p.reached, info=p.line())
             elif now >= next_json:

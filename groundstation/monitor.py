@@ -13,6 +13,7 @@ from rich.live import Live
 from rich.table import Table
 
 from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.text import plain
 
 
 def _fmt(v: Any, unit: str = "", digits: int = 2) -> str:
@@ -22,11 +23,12 @@ def _fmt(v: Any, unit: str = "", digits: int = 2) -> str:
 
 
 def _table(s: dict[str, Any]) -> Table:
+    """The cells as rich Text: a cell's string (the vehicle's text) is never markup."""
     t = Table(title="ISiMI100", show_header=False)
     t.add_column("field")
     t.add_column("value")
     for key, value in s.items():
-        t.add_row(key, value if isinstance(value, str) else _fmt(value))
+        t.add_row(plain(key), plain(value if isinstance(value, str) else _fmt(value)))
     return t
 
 

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from rich.text import Text
+
     from groundstation.mavclient import MavClient
 
 DEFAULT_PORT = 8600
@@ -34,7 +36,7 @@ def add_parser(subparsers: Any) -> None:
 def run(
     args: argparse.Namespace,
     client_factory: Callable[[], MavClient],
-    done: Callable[[dict[str, Any], str], None],
+    done: Callable[[dict[str, Any], str | Text], None],
 ) -> int:
     """Serve the map until SIGINT / SIGTERM (:func:`groundstation.map.server.run`)."""
     from groundstation.map import server

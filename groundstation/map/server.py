@@ -42,6 +42,7 @@ from typing import Any, Protocol
 
 from aiohttp import WSCloseCode, WSMsgType, web
 from pymavlink.dialects.v20 import common as mavlink
+from rich.text import Text
 
 from groundstation.map import HOST
 from groundstation.map.state import (
@@ -56,6 +57,7 @@ from groundstation.map.state import (
     update_for,
 )
 from groundstation.mavclient import LinkError, MavClient, Msg
+from groundstation.text import labelled
 from groundstation.tlog import read_tlog
 
 log = logging.getLogger(__name__)
@@ -69,7 +71,7 @@ NO_READER_NOTE = "the planned path is not shown: this ground station cannot read
 #: The names the map answers to in a request's Host header (with the port it serves on).
 HOST_NAMES = ("127.0.0.1", "localhost")
 
-Done = Callable[[dict[str, Any], str], None]
+Done = Callable[[dict[str, Any], str | Text], None]
 
 
 class Source(Protocol):
@@ -373,9 +375,7 @@ def make_app(source: Source, *, live: bool) -> web.Application:
 
 
 def _error(done: Done, text: str) -> int:
-    from rich.markup import escape
-
-    done({"ok": False, "error": text}, f"[red]error:[/] {escape(text)}")
+    done({"ok": False, "error": text}, labelled("error:", "red", text))
     sys.stdout.flush()
     return 2
 

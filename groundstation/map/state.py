@@ -36,6 +36,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from auv_common import mavlink_ftp as ftp
 from groundstation import mission_files
 from groundstation.mavclient import Item, Msg, StatusText, StatusTextAssembler, state_from_heartbeat
+from groundstation.text import wire_text
 
 #: The vehicle's file with the path it flies now (read over MAVLink FTP).
 PLANNED_PATH_FILE = "@PATH/planned.json"
@@ -528,7 +529,8 @@ class MapModel:
             "goal": goal,
             "errors": errors,
             "load": self._load,
-            "texts": [{"severity": t.severity, "text": t.text, "t_s": t.t_s} for t in self._texts],
+            # the page writes them with textContent (never HTML); their control characters removed here
+            "texts": [{"severity": t.severity, "text": wire_text(t.text), "t_s": t.t_s} for t in self._texts],
             "note": self.note,
         }
 
