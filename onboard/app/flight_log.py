@@ -1,7 +1,10 @@
 """The onboard flight log: every control tick of one run in an MCAP file (Foxglove and PlotJuggler open it).
 
-``<state_dir>/logs/flight-YYYYmmdd-HHMMSS.mcap`` (the UTC start time; ``[log] dir`` puts it elsewhere), one
-file per run of ``auv-onboard run``; beyond ``[log] keep_files`` files the oldest are removed. Messages
+``<state_dir>/logs/flight-<seq>-YYYYmmdd-HHMMSS.mcap`` (``[log] dir`` puts it elsewhere), one file per run
+of ``auv-onboard run``; the names, their order and what is kept are :mod:`onboard.adapters.log_files`'s
+rule. The directory is kept within ``[log] max_total_mb`` and ``keep_files`` (:func:`rotate`) at the
+start, after every flush and at the end: boot-only logs go first, then the oldest flights, never the file
+being written; the writer marks its log as a flight at the first RUNNING tick. Messages
 are JSON (``message_encoding="json"``) with one JSON Schema per channel (``encoding="jsonschema"``), in SI
 units and radians as in :class:`~onboard.adapters.mavlink.api.VehicleSnapshot` (NED world, FRD body):
 
@@ -50,7 +53,15 @@ from typing import Any, BinaryIO
 from mcap.writer import CompressionType, Writer
 
 from auv_common.config import require
-from onboard.adapters.log_files import log_files
+from onboard.adapters.log_files import (
+    log_files,
+    log_name,
+    marker,
+    next_sequence,
+    orphan_markers,
+    scan,
+    to_remove,
+)
 from onboard.adapters.mavlink.api import MISSION_STATES, Request, VehicleSnapshot
 from onboard.core.commands import Note, Verdict
 from onboard.core.mission.model import Goal, Obstacle
@@ -62,7 +73,6 @@ log = logging.getLogger(__name__)
 
 #: The spacing of the path samples in /path (m of arc length; the last gap may be shorter: both ends kept).
 PATH_STEP_M = POINT_STEP_M
-#: A file name of the log: the UTC start time, then ``-N`` when that second already had a file.
 #: Ticks the writer may lag behind before the loop drops them (about 100 s at 20 Hz).
 QUEUE_TICKS = 2048
 #: A chunk also ends at this many bytes (lock-step runs faster than the wall clock).
@@ -75,17 +85,24 @@ TELEMETRY, PATH, MISSION, EVENTS = "/telemetry", "/path", "/mission", "/events"
 class LogConfig:
     """The ``[log]`` table: the flight log of ``auv-onboard run`` (:mod:`onboard.app.flight_log`).
 
-    enabled: write one file per run. keep_files: the newest files kept in the directory, the new one
-    included (1..1000; older ones are removed at start). flush_period_s: the writer ends a chunk, writes and
-    fsyncs it this often (0.1..10 s): what a crash may lose. dir: the directory ("" = ``<state_dir>/logs``).
+    enabled: write one file per run. max_total_mb: the bytes all logs may take together, the one being
+    written included (0.01..1e6 MB; 1 MB = 1e6 bytes). keep_files: the most log files kept (1..1000). Beyond
+    either, logs are removed (:func:`onboard.adapters.log_files.to_remove`: boot-only ones first, then the
+    oldest flights, never the one being written). flush_period_s: the writer ends a chunk, writes and fsyncs
+    it this often (0.1..10 s): what a crash may lose. dir: the directory ("" = ``<state_dir>/logs``).
     """
 
     enabled: bool = True
-    keep_files: int = 20
+    max_total_mb: float = 500.0
+    keep_files: int = 200
     flush_period_s: float = 1.0
     dir: str = ""
 
     def __post_init__(self) -> None:
+        require(
+            0.01 <= self.max_total_mb <= 1e6,
+            f"max_total_mb must be within 0.01..1e6 MB, got {self.max_total_mb}",
+        )
         require(1 <= self.keep_files <= 1000, f"keep_files must be within 1..1000, got {self.keep_files}")
         require(
             0.1 <= self.flush_period_s <= 10.0,
@@ -95,6 +112,10 @@ class LogConfig:
     def directory(self, state_dir: Path) -> Path:
         """Where the files go: ``dir``, or ``logs`` in the state directory."""
         return Path(self.dir) if self.dir else Path(state_dir) / "logs"
+
+    @property
+    def max_total_bytes(self) -> int:
+        return round(self.max_total_mb * 1e6)
 
 
 # --- the messages --------------------------------------------------------------------------------------
@@ -381,6 +402,9 @@ class FlightLog:
     The loop thread calls :meth:`notify` with the notes of a tick and :meth:`publish` with its snapshot
     (both O(1), never blocking, never raising), then :meth:`close` once at the end. ``path`` names the file
     in messages; ``metadata``: MCAP metadata records (name -> string map) written after the header.
+    The writer thread calls ``on_flight`` once, at the first RUNNING tick (the log marks itself a flight),
+    and ``after_flush`` after every flush and after the footer (the rotation: the directory stays within
+    its budget while the log grows); an error in either is one warning (once per hook), the log goes on.
     """
 
     def __init__(
@@ -392,8 +416,14 @@ class FlightLog:
         flush_period_s: float = 1.0,
         queue_ticks: int = QUEUE_TICKS,
         clock: Callable[[], float] = time.monotonic,
+        on_flight: Callable[[], None] | None = None,
+        after_flush: Callable[[], object] | None = None,
     ) -> None:
         self.path = path
+        self.flew = False  # a tick RUNNING was logged
+        self._on_flight = on_flight
+        self._after_flush = after_flush
+        self._hook_failed: set[str] = set()  # hooks that failed (warned once each)
         self.flush_period_s = flush_period_s
         self.dropped = 0  # ticks not logged: the writer was behind
         self.failed = False  # an error turned the log off
@@ -487,9 +517,13 @@ class FlightLog:
             try:
                 if item is not None:
                     self._recorder.record(*item)
+                    if not self.flew and item[0].state is MissionState.RUNNING:
+                        self.flew = True
+                        self._hook("cannot mark it as a flight", self._on_flight)
                 if self._clock() >= next_flush_s:
                     self._recorder.flush()
                     next_flush_s = self._clock() + self.flush_period_s
+                    self._hook("cannot keep the directory within its budget", self._after_flush)
             except Exception as exc:  # the log never stops the vehicle
                 self._fail(exc)
         if self.failed:
@@ -508,6 +542,19 @@ class FlightLog:
             self._finished = True
         except Exception as exc:
             self._fail(exc)
+            return
+        self._hook("cannot keep the directory within its budget", self._after_flush)
+
+    def _hook(self, what: str, hook: Callable[[], object] | None) -> None:
+        """Run a writer-side hook; an error is one warning (the log goes on)."""
+        if hook is None:
+            return
+        try:
+            hook()
+        except Exception as exc:
+            if what not in self._hook_failed:
+                self._hook_failed.add(what)
+                log.warning("flight log: %s: %s: %s: %s", self.name, what, type(exc).__name__, exc)
 
     def _fail(self, exc: BaseException) -> None:
         """One warning; the log is off from here on (the loop goes on)."""
@@ -563,28 +610,72 @@ def _utc_iso(t: dt.datetime) -> str:
     return t.astimezone(dt.UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
-def rotate(directory: Path, keep_files: int) -> list[Path]:
-    """Remove the oldest flight logs beyond the newest ``keep_files``; return those removed."""
-    files = log_files(directory)
+def rotate(
+    directory: Path, config: LogConfig, current: Path | None = None, warned: set[str] | None = None
+) -> list[Path]:
+    """Remove flight logs until ``directory`` is within ``config``'s bytes and files
+    (:func:`~onboard.adapters.log_files.to_remove`: never ``current``, boot-only logs first, then the oldest
+    flights), with their markers, and markers whose log is gone; return the logs removed. A file that cannot
+    be removed is one warning (once per name in ``warned``: the writer rotates after every flush)."""
+    warned = set() if warned is None else warned
     removed = []
-    for p in files[: max(0, len(files) - keep_files)]:
+    for name in to_remove(scan(directory, current), config.max_total_bytes, config.keep_files):
+        p = directory / name
         try:
             p.unlink()
             removed.append(p)
+            log.info(
+                "flight log: removed the old %s (max_total_mb = %g, keep_files = %d)",
+                name,
+                config.max_total_mb,
+                config.keep_files,
+            )
+        except FileNotFoundError:
+            pass
         except OSError as exc:
-            log.warning("flight log: cannot remove the old %s: %s", p, exc)
+            _warn_once(warned, p, exc)
+            continue
+        _remove(marker(p), warned)
+    for p in orphan_markers(directory):
+        _remove(p, warned)
     return removed
 
 
+def _remove(p: Path, warned: set[str]) -> None:
+    try:
+        p.unlink(missing_ok=True)
+    except OSError as exc:
+        _warn_once(warned, p, exc)
+
+
+def _warn_once(warned: set[str], p: Path, exc: OSError) -> None:
+    if p.name not in warned:
+        warned.add(p.name)
+        log.warning("flight log: cannot remove the old %s: %s (the directory may go over its budget)", p, exc)
+
+
+def mark_flight(path: Path) -> None:
+    """Mark ``path`` as a log that saw the vehicle RUNNING (the empty marker beside it, made durable)."""
+    flag = marker(path)
+    flag.touch()
+    fd = os.open(flag.parent, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    log.info("flight log: %s holds a flight (RUNNING): kept before boot-only logs", path.name)
+
+
 def _create(directory: Path, start: dt.datetime) -> tuple[Path, BinaryIO]:
-    stem = f"flight-{start.astimezone(dt.UTC):%Y%m%d-%H%M%S}"
-    for n in range(1, 100):
-        path = directory / (f"{stem}.mcap" if n == 1 else f"{stem}-{n}.mcap")
+    """The next log file, created (never one that exists: another run may have taken the number)."""
+    seq = next_sequence(directory)
+    for n in range(seq, seq + 100):
+        path = directory / log_name(n, start)
         try:
             return path, open(path, "xb")  # the writer thread closes it
         except FileExistsError:
             continue
-    raise FileExistsError(f"{directory / stem}-*.mcap: 99 files of the same second")
+    raise FileExistsError(f"{directory}: logs {seq}..{seq + 99} all exist")
 
 
 def _leaves(node: Any, prefix: str = "") -> dict[str, str]:
@@ -629,18 +720,27 @@ def open_flight_log(
     metadata: Mapping[str, Mapping[str, str]] | None = None,
     start: dt.datetime | None = None,
 ) -> FlightLog | None:
-    """Start the flight log of a run in ``config.directory(state_dir)`` (the oldest beyond ``keep_files``
-    removed), or None: off by configuration, or the file cannot be created (one warning: the vehicle flies
-    without it). ``start``: the UTC start time (the file name; default now)."""
+    """Start the flight log of a run in ``config.directory(state_dir)`` (the directory kept within the
+    budget: :func:`rotate`, now and as the log grows), or None: off by configuration, or the file cannot be
+    created (one warning: the vehicle flies without it). ``start``: the UTC start time (in the name; default
+    now)."""
     if not config.enabled:
         return None
     directory = config.directory(state_dir)
     when = start if start is not None else dt.datetime.now(dt.UTC)
     stream = None
+    warned: set[str] = set()
     try:
         directory.mkdir(parents=True, exist_ok=True)
         path, stream = _create(directory, when)
-        flight = FlightLog(stream, path=path, metadata=metadata, flush_period_s=config.flush_period_s)
+        flight = FlightLog(
+            stream,
+            path=path,
+            metadata=metadata,
+            flush_period_s=config.flush_period_s,
+            on_flight=lambda: mark_flight(path),
+            after_flush=lambda: rotate(directory, config, path, warned),
+        )
     except OSError as exc:
         log.warning("flight log off: cannot write in %s: %s (the vehicle goes on without it)", directory, exc)
         if stream is not None:
@@ -649,8 +749,7 @@ def open_flight_log(
             except OSError:
                 pass
         return None
-    for old in rotate(directory, config.keep_files):
-        log.info("flight log: removed the old %s (keep_files = %d)", old.name, config.keep_files)
+    rotate(directory, config, path, warned)
     log.info("flight log: %s", path)
     return flight
 
@@ -664,6 +763,7 @@ __all__ = [
     "LogConfig",
     "LoggedLink",
     "log_files",
+    "mark_flight",
     "open_flight_log",
     "rotate",
     "run_metadata",

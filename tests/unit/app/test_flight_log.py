@@ -9,13 +9,17 @@ import logging
 import math
 import os
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 
 from auv_common.config import ConfigError
+from onboard.adapters.log_files import LogFile, marker, scan, to_remove
 from onboard.adapters.mavlink import bridge
 from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.app.config import config_from_dict, load_config
@@ -252,29 +256,172 @@ def test_the_real_core_through_the_bridge_logs_transitions_paths_and_notes(tmp_p
 
 
 # --- files: names, rotation ----------------------------------------------------------------------------
-def test_one_file_per_run_named_by_utc_start_and_old_ones_rotated_out(tmp_path: Path) -> None:
+def boot_only(seq: int, size: int, **kw: Any) -> LogFile:
+    return LogFile(f"b{seq}", size, (seq, 0, f"b{seq}"), has_flight=False, **kw)
+
+
+def flown(seq: int, size: int, **kw: Any) -> LogFile:
+    return LogFile(f"f{seq}", size, (seq, 0, f"f{seq}"), has_flight=True, **kw)
+
+
+def test_rotation_removes_boot_only_logs_before_flights_oldest_first_never_the_current() -> None:
+    logs = [
+        flown(1, 100),
+        boot_only(2, 100),
+        flown(3, 100),
+        boot_only(4, 100),
+        boot_only(5, 50, is_current=True),
+    ]
+    # within both limits: nothing
+    assert to_remove(logs, max_total_bytes=450, max_files=5) == []
+    # over the bytes: the boot-only logs first (oldest first), then the oldest flight
+    assert to_remove(logs, max_total_bytes=300, max_files=5) == ["b2", "b4"]
+    assert to_remove(logs, max_total_bytes=200, max_files=5) == ["b2", "b4", "f1"]
+    # over the files: the same order
+    assert to_remove(logs, max_total_bytes=10_000, max_files=4) == ["b2"]
+    # the current log alone over the budget: it stays, all the others go
+    assert to_remove(logs, max_total_bytes=10, max_files=1) == ["b2", "b4", "f1", "f3"]
+    # a crash loop of 31 boot-only logs after 3 flights, 20 files kept: every flight stays
+    loop = [flown(i, 1000) for i in range(1, 4)] + [boot_only(i, 10) for i in range(4, 35)]
+    loop[-1] = boot_only(34, 10, is_current=True)
+    gone = to_remove(loop, max_total_bytes=10**9, max_files=20)
+    assert len(gone) == 14 and all(n.startswith("b") for n in gone) and "b34" not in gone
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 1000), st.booleans()), min_size=1, max_size=30),
+    st.integers(0, 5000),
+    st.integers(1, 30),
+    st.data(),
+)
+def test_rotation_choice_properties(
+    files: list[tuple[int, bool]], budget: int, max_files: int, data: st.DataObject
+) -> None:
+    current = data.draw(st.integers(0, len(files) - 1))
+    logs = [
+        LogFile(f"n{i}", size, (i, 0, f"n{i}"), flew, is_current=i == current)
+        for i, (size, flew) in enumerate(files)
+    ]
+    gone = to_remove(logs, budget, max_files)
+    kept = [f for f in logs if f.name not in gone]
+    by_name = {f.name: f for f in logs}
+    # never the current one; the rest within the limits when the current one allows it
+    assert f"n{current}" not in gone
+    if logs[current].size_bytes <= budget:
+        assert sum(f.size_bytes for f in kept) <= budget and len(kept) <= max_files
+    # boot-only before flights, oldest first within each; no log removed that need not be
+    assert [by_name[n] for n in gone] == sorted(
+        (by_name[n] for n in gone), key=lambda f: (f.has_flight, f.order)
+    )
+    candidates = sorted((f for f in logs if not f.is_current), key=lambda f: (f.has_flight, f.order))
+    assert gone == [f.name for f in candidates[: len(gone)]]
+    if gone:
+        before_last = [f for f in logs if f.name not in gone[:-1]]
+        assert sum(f.size_bytes for f in before_last) > budget or len(before_last) > max_files
+
+
+def test_names_carry_a_sequence_and_the_order_is_creation_not_the_date_in_a_name(tmp_path: Path) -> None:
     logs = tmp_path / "state" / "logs"
     logs.mkdir(parents=True)
-    for day in range(1, 23):  # 22 older runs, written in a shuffled order
-        (logs / f"flight-202401{day:02d}-120000.mcap").write_bytes(b"old")
+    # GIVEN logs of the older firmware named by a clock that ran ahead (2030), written in this order
+    for i, day in enumerate((3, 1, 2)):
+        (logs / f"flight-203001{day:02d}-120000.mcap").write_bytes(b"old")
+        os.utime(logs / f"flight-203001{day:02d}-120000.mcap", ns=(10**18 + i, 10**18 + i))
     (logs / "notes.txt").write_text("kept")
-    os.utime(logs / "flight-20240101-120000.mcap", (2e9, 2e9))  # the name's time counts, not the mtime
     start = dt.datetime(2024, 3, 1, 8, 30, 5, tzinfo=dt.UTC)
-    # WHEN a run starts with keep_files = 20
-    flight = open_flight_log(LogConfig(keep_files=20), tmp_path / "state", {}, start)
-    assert flight is not None and flight.path == logs / "flight-20240301-083005.mcap"
-    # AND another in the same second
-    second = open_flight_log(LogConfig(keep_files=20), tmp_path / "state", {}, start)
-    assert second is not None and second.path == logs / "flight-20240301-083005-2.mcap"
-    flight.close()
+    # WHEN two runs start in the same second
+    first = open_flight_log(LogConfig(), tmp_path / "state", {}, start)
+    second = open_flight_log(LogConfig(), tmp_path / "state", {}, start)
+    assert first is not None and second is not None
+    first.close()
     second.close()
-    # THEN 20 are left: the newest 18 of the old ones and the two new ones; other files are left alone
-    names = [p.name for p in log_files(logs)]
-    assert len(names) == 20 and names[-2:] == ["flight-20240301-083005.mcap", "flight-20240301-083005-2.mcap"]
-    assert names[0] == "flight-20240105-120000.mcap" and (logs / "notes.txt").exists()
-    assert (
-        rotate(logs, 1) == [logs / n for n in names[:-1]] and [p.name for p in log_files(logs)] == names[-1:]
-    )
+    # THEN each has the next sequence number and the UTC start; the order is creation, old names first
+    assert [p.name for p in log_files(logs)] == [
+        "flight-20300103-120000.mcap",
+        "flight-20300101-120000.mcap",
+        "flight-20300102-120000.mcap",
+        "flight-000001-20240301-083005.mcap",
+        "flight-000002-20240301-083005.mcap",
+    ]
+    assert (logs / "notes.txt").exists()
+    # AND a clock that runs ahead later changes nothing: the sequence goes on
+    ahead = open_flight_log(LogConfig(), tmp_path / "state", {}, dt.datetime(2031, 1, 1, tzinfo=dt.UTC))
+    behind = open_flight_log(LogConfig(), tmp_path / "state", {}, dt.datetime(2001, 1, 1, tzinfo=dt.UTC))
+    assert ahead is not None and behind is not None
+    ahead.close()
+    behind.close()
+    assert [p.name for p in log_files(logs)][-2:] == [
+        "flight-000003-20310101-000000.mcap",
+        "flight-000004-20010101-000000.mcap",
+    ]
+
+
+def test_a_run_keeps_its_own_log_among_logs_named_ahead_and_marks_a_flight(tmp_path: Path) -> None:
+    logs = tmp_path / "state" / "logs"
+    logs.mkdir(parents=True)
+    for day in range(1, 21):  # 20 logs named 2030 by a clock that ran ahead
+        (logs / f"flight-203001{day:02d}-120000.mcap").write_bytes(b"x" * 1000)
+    # WHEN a run starts with room for 20 files
+    flight = open_flight_log(LogConfig(keep_files=20), tmp_path / "state", {})
+    # THEN its own new log is there, the oldest 2030 log made room
+    assert flight is not None and flight.path is not None and flight.path.exists()
+    assert not (logs / "flight-20300101-120000.mcap").exists() and len(log_files(logs)) == 20
+    # WHEN it logs a tick RUNNING
+    flight.publish(snap(0.0, S.ARMED))
+    flight.publish(snap(0.1, S.RUNNING))
+    # THEN the writer marks it a flight at once (before any close: a crash keeps the mark)
+    deadline = time.monotonic() + 30.0
+    while not marker(flight.path).exists():
+        assert time.monotonic() < deadline, "no mark within 30 s"
+        time.sleep(0.01)
+    flight.close()
+    assert [f.has_flight for f in scan(logs) if f.name == flight.path.name] == [True]
+    # AND a run that never flies leaves no mark; rotating its log out removes its mark too
+    boot = open_flight_log(LogConfig(keep_files=20), tmp_path / "state", {})
+    assert boot is not None and boot.path is not None
+    boot.publish(snap(0.0, S.IDLE))
+    boot.close()
+    assert not marker(boot.path).exists() and boot.path.exists()
+    # AND a boot-only log goes before any flight (the 2030 ones count as flights: nothing cheap tells)
+    assert rotate(logs, LogConfig(keep_files=19)) == [boot.path]
+    assert rotate(logs, LogConfig(keep_files=1)) == [
+        logs / f"flight-203001{d:02d}-120000.mcap" for d in range(3, 21)
+    ]
+    assert log_files(logs) == [flight.path]
+    # AND a flight rotated out takes its mark with it (a later run, one file kept)
+    last = open_flight_log(LogConfig(keep_files=1), tmp_path / "state", {})
+    assert last is not None
+    last.close()
+    assert log_files(logs) == [last.path] and sorted(p.name for p in logs.iterdir()) == [last.path.name]
+
+
+def test_the_directory_stays_within_its_bytes_as_the_log_grows(tmp_path: Path) -> None:
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for seq in range(1, 6):  # five older boot-only logs of 4 kB
+        (logs / f"flight-{seq:06d}-20240101-000000.mcap").write_bytes(b"x" * 4000)
+    # WHEN a run with a 20 kB budget logs ticks, a chunk flushed every 0.1 s
+    config = LogConfig(dir=str(logs), max_total_mb=0.02, flush_period_s=0.1)
+    flight = open_flight_log(config, tmp_path, {})
+    assert flight is not None and flight.path is not None
+    current = flight.path
+
+    def within() -> bool:
+        return sum(p.stat().st_size for p in logs.iterdir()) <= 20_000 or log_files(logs) == [current]
+
+    for i in range(2000):
+        flight.publish(snap(i * 0.05, S.RUNNING, x_m=i * 0.1234567))
+        if i % 200 == 199:
+            # THEN after the next flush the older logs have made room for it (while there are older ones)
+            deadline = time.monotonic() + 30.0
+            while not within():
+                assert time.monotonic() < deadline, sorted((p.name, p.stat().st_size) for p in logs.iterdir())
+                time.sleep(0.02)
+    grown = current.stat().st_size
+    flight.close()
+    # AND at the end only the run's own log is left, it alone over the budget
+    assert log_files(logs) == [current] and grown > 20_000
 
 
 def test_the_configured_directory_and_off(tmp_path: Path) -> None:
@@ -290,6 +437,9 @@ def test_the_configured_directory_and_off(tmp_path: Path) -> None:
 def test_the_log_table_is_validated_like_the_others() -> None:
     assert load_config().log == LogConfig()  # the packaged onboard.toml says the defaults
     assert config_from_dict({"log": {"keep_files": 5, "flush_period_s": 0.5}}, "x").log.keep_files == 5
+    assert config_from_dict({"log": {"max_total_mb": 0.5}}, "x").log.max_total_bytes == 500_000
+    with pytest.raises(ConfigError, match=r"max_total_mb must be within 0.01..1e6 MB"):
+        config_from_dict({"log": {"max_total_mb": 0.0}}, "onboard.toml")
     with pytest.raises(ConfigError, match=r"keep_files must be within 1..1000"):
         config_from_dict({"log": {"keep_files": 0}}, "onboard.toml")
     with pytest.raises(ConfigError, match=r"flush_period_s must be within"):
@@ -306,7 +456,9 @@ def test_run_metadata_names_the_vehicle_the_start_and_every_config_value() -> No
     assert meta["flight_log"]["start_utc"] == "2024-03-01T08:30:05.250Z"
     assert meta["flight_log"]["vehicle"] == "ISiMI100" and meta["flight_log"]["config"] == "onboard.toml"
     assert meta["flight_log"]["software"].startswith("isimi100-autonomy ")
-    assert meta["config"]["loop.rate_hz"] == "20.0" and meta["config"]["log.keep_files"] == "20"
+    assert meta["config"]["loop.rate_hz"] == "20.0" and meta["config"]["log.keep_files"] == str(
+        LogConfig().keep_files
+    )
     assert all(isinstance(v, str) for rec in meta.values() for v in rec.values())
 
 
