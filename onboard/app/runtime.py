@@ -223,6 +223,21 @@ def resolve_built(
     return BootConfig(config, configured, bus, applied, dropped, tuple(lines))
 
 
+def resolve_boot(configured: OnboardConfig, sets: list[str], store: StateStore | None) -> BootConfig:
+    """The one boot path of every vehicle program (``auv-onboard run``, the standalone vehicle): the
+    persisted ground-station edits of ``store`` applied to ``configured`` (:func:`resolve_built`) BEFORE the
+    core and the link exist, so the link serves the values in force from its first packet (a ground station
+    caches the list it reads at connect). A refused edit is not kept to be applied at a later boot."""
+    persisted = store.load_params() if store is not None else {}
+    boot = resolve_built(configured, sets, persisted)
+    if store is not None and boot.dropped:
+        try:
+            store.save_params({n: v for n, v in persisted.items() if n not in boot.dropped})
+        except OSError as exc:
+            log.error("cannot rewrite the persisted parameters without the refused ones: %s", exc)
+    return boot
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="auv-onboard run",
@@ -276,13 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         store = StateStore(cfg0.mavlink.resolved_state_dir()) if mavlink_on else None
         if store is not None:
             store.check_writable()
-        persisted = store.load_params() if store is not None else {}
-        boot = resolve_built(cfg0, sets, persisted)
-        if store is not None and boot.dropped:  # a refused edit is not kept to be applied at a later boot
-            try:
-                store.save_params({n: v for n, v in persisted.items() if n not in boot.dropped})
-            except OSError as exc:
-                log.error("cannot rewrite the persisted parameters without the refused ones: %s", exc)
+        boot = resolve_boot(cfg0, sets, store)
         mission = load_mission(args.mission, boot.config.core) if args.mission else None
     except (ConfigError, MissionError, StateDirError) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
@@ -452,19 +461,30 @@ def mission_validator(autopilot: Autopilot, timeout_s: float) -> Callable[[Missi
     return validator
 
 
-def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, mission: Mission | None) -> Any:
-    """The MAVLink link: the one validator bound to the core's configuration, the one table."""
+def build_link(
+    autopilot: Autopilot, boot: BootConfig, store: StateStore, mission: Mission | None, **kw: Any
+) -> Any:
+    """The MAVLink link of ``boot`` (:func:`resolve_boot`), not started: the one validator bound to the
+    core's configuration, the one table, and the values in force (the persisted edits are in already:
+    the link never serves a table default for a value that is not in force). ``kw``: more for
+    :class:`~onboard.adapters.mavlink.endpoint.VehicleLink` (tests: a clock)."""
     from onboard.adapters.mavlink.endpoint import VehicleLink
 
-    link = VehicleLink(
+    return VehicleLink(
         boot.config.mavlink,
         validator=mission_validator(autopilot, boot.config.mavlink.validate_timeout_s),
         params=param_table(boot.configured.core, boot.bus_limits),
-        param_values={name: param_value(boot.config.core, name) for name in PARAM_NAMES},
+        param_values={name: param_value(autopilot.config, name) for name in PARAM_NAMES},
         initial_mission=mission,
         store=store,
         log_dir=boot.config.log.directory(store.dir),  # the flight logs it serves over MAVLink FTP
+        **kw,
     )
+
+
+def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, mission: Mission | None) -> Any:
+    """:func:`build_link`, started."""
+    link = build_link(autopilot, boot, store, mission)
     link.start()
     return link
 

@@ -12,12 +12,15 @@ with sensor messages. The plant is no model of the vehicle (that is ``hil_sim``)
 propeller through the speed map with a 1 s lag, yaw rate is speed times the rudder's curvature, depth rate is
 speed times the stern. Simulated time runs ``time_scale`` times faster than the wall clock (lock-step
 inside the process: the plan of a tick is awaited, so a run repeats exactly). The configuration is the
-packaged ``onboard.toml`` (``--config`` may give another ``[mavlink]`` table).
+packaged ``onboard.toml`` (``--config`` may give another ``[mavlink]`` table) with the persisted
+ground-station edits of the state directory, resolved and in force before the link exists, by the one
+boot path of ``auv-onboard run`` (:func:`onboard.app.runtime.resolve_boot`, ``build_link``).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import json
 import math
@@ -33,13 +36,15 @@ from auv_common.config import ConfigError, load_toml
 from onboard.adapters.mavlink import bridge
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
+from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import load_config
 from onboard.app.planning import PlanWorker
-from onboard.app.runtime import mission_validator
+from onboard.app.runtime import build_link, mission_validator, resolve_boot
 from onboard.core import commands as core
 from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import ActuatorCommand
+from onboard.core.mission.model import Mission
 from onboard.core.mission.validate import check_mission
 from onboard.core.params import BusLimits, ParamSpec, param_table
 from onboard.protocol import messages as m
@@ -68,8 +73,9 @@ def make_link(
     autopilot: Autopilot | None = None,
     **kw: Any,
 ) -> VehicleLink:
-    """A link with the one validator (bound to the autopilot's configuration when given) and the
-    parameter table of the configuration."""
+    """A link alone (tests): the one validator (bound to the autopilot's configuration when given) and the
+    parameter table of the configuration; the persisted edits go to the core as requests, and the link
+    answers no PARAM_* or mission request until the loop has judged them all. A vehicle is :func:`build`."""
     cc = core_config or (autopilot.config if autopilot is not None else default_core())
     validator = (
         mission_validator(autopilot, config.validate_timeout_s)
@@ -168,10 +174,20 @@ class SimpleVehicle:
             self.plans.close()
 
 
-def build(config: MavlinkConfig, rate_hz: float = 20.0, **link_kw: Any) -> SimpleVehicle:
-    """The link and the vehicle for ``config`` with the packaged core configuration."""
-    ap = Autopilot(default_core(), bus_limits=bus_limits())
-    link = make_link(config, autopilot=ap, **link_kw)
+def build(
+    config: MavlinkConfig,
+    rate_hz: float = 20.0,
+    *,
+    store: StateStore | None = None,
+    initial_mission: Mission | None = None,
+    **link_kw: Any,
+) -> SimpleVehicle:
+    """The link and the vehicle for ``config``: the packaged configuration with the persisted edits of the
+    state directory in force in the core before the link exists (the boot path of ``auv-onboard run``)."""
+    store = store if store is not None else StateStore(config.resolved_state_dir())
+    boot = resolve_boot(dataclasses.replace(load_config(), mavlink=config), [], store)
+    ap = Autopilot(boot.config.core, bus_limits=boot.bus_limits)
+    link = build_link(ap, boot, store, initial_mission, **link_kw)
     return SimpleVehicle(link, ap, rate_hz)
 
 

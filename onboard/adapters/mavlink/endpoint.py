@@ -64,7 +64,8 @@ class VehicleLink:
         validator: the mission check every upload passes (``check_mission`` bound to the configuration).
         params: the parameter table (:func:`onboard.core.params.param_table`); empty = no parameters.
         param_values: the values in force at start when the caller applied the persisted edits itself;
-            None: the link hands each persisted edit to the core as a ``SetParam`` request.
+            None: the link hands each persisted edit to the core as a ``SetParam`` request and answers
+            no PARAM_* or mission request until the core has judged them all.
         initial_mission: a mission given at start (``--mission``, already checked); it wins over the
             persisted one and is persisted.
         clock: monotonic wall clock (s); tests may inject one.
@@ -277,6 +278,8 @@ class VehicleLink:
             return
         if kind == "MISSION_SET_CURRENT" or kind.startswith("COMMAND_"):
             self.commands.handle(msg, sender, now)
+        elif kind.startswith(("MISSION_", "PARAM_")) and self.params.booting:
+            return  # persisted edits not in force yet: nothing served or judged before them (asked again)
         elif kind.startswith("MISSION_"):
             self.missions.handle(msg, sender, now)
         elif kind.startswith("PARAM_"):

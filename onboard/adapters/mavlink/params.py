@@ -10,9 +10,11 @@ holds only the values in force as the core last reported them. A PARAM_SET is a
   reason;
 - an unknown name has no PARAM_VALUE to answer with: a STATUSTEXT "unknown parameter NAME".
 
-At start the service loads the persisted edits; unless the caller gives the values in force
-(``values``, when the app has applied the edits itself), each persisted edit is handed to the core as a
-``SetParam`` request (not timed: it waits for the loop).
+At start the service loads the persisted edits. The vehicle programs apply them to the core first and give
+the values in force (``values``; :func:`onboard.app.runtime.resolve_boot`), so the first PARAM_VALUE is
+true. Without ``values`` (a link alone, tests) each persisted edit is handed to the core as a ``SetParam``
+request (not timed: it waits for the loop) and, until the core has judged them all (:attr:`booting`), the
+link answers no PARAM_* or mission request: a table default is never served for a value not in force.
 """
 
 from __future__ import annotations
@@ -80,10 +82,12 @@ class ParamService:
         self._edits: dict[str, float] = {n: v for n, v in persisted.items() if n in self._index}
         for name in sorted(set(persisted) - set(self._index)):
             log.warning("persisted parameter %s is not in the table: ignored", name)
+        self._booting: set[str] = set()  # persisted edits handed to the core, not judged yet
         if values is not None:
             self._values.update({n: float(v) for n, v in values.items() if n in self._index})
         else:
             for name, value in self._edits.items():
+                self._booting.add(name)
                 self.requests.submit(
                     core.SetParam(name, value, source="persisted edit"),
                     functools.partial(self._boot_answer, name),
@@ -91,6 +95,12 @@ class ParamService:
                 )
 
     # ---- queries (any thread: values change only on the I/O thread, dict reads are atomic) --------
+    @property
+    def booting(self) -> bool:
+        """True while a persisted edit handed to the core at start has not been judged: the values held
+        are not the values in force yet, so the link answers no PARAM_* (nor mission request) meanwhile."""
+        return bool(self._booting)
+
     def value(self, name: str) -> float:
         return self._values[name]
 
@@ -179,6 +189,7 @@ class ParamService:
         self._edits = edits
 
     def _boot_answer(self, name: str, verdict: Verdict) -> None:
+        self._booting.discard(name)
         if math.isfinite(verdict.value):
             self._values[name] = verdict.value
         if verdict.accepted:

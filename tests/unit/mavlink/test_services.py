@@ -475,6 +475,29 @@ def test_persisted_edits_go_to_the_core_at_start(tmp_path: Path) -> None:
     assert given.link.take_requests() == [] and given.link.params.value("A") == 0.5
 
 
+def test_no_param_or_mission_answer_until_the_persisted_edits_are_in_force(tmp_path: Path) -> None:
+    # GIVEN a link alone (no values in force given) with a persisted edit handed to the core
+    StateStore(tmp_path).save_params({"A": 1.25})
+    c = Captured(tmp_path, params=SPECS)
+    c.link.transport.reply = lambda m, _to: c.out.append(m)  # type: ignore[method-assign]
+    (req,) = c.link.take_requests()
+    # WHEN a station asks for the list, one value, and the mission before the core has judged the edit
+    c.rx(mavlink.MAVLink_param_request_list_message(1, 1))
+    c.rx(mavlink.MAVLink_param_request_read_message(1, 1, b"A", -1))
+    c.rx(mavlink.MAVLink_mission_request_list_message(1, 1, TYPE_MISSION))
+    # THEN nothing is answered (no table default served for a value not in force) ...
+    assert c.link.params.booting and c.out == []
+    # ... and once the edit is in force, the value served is it
+    c.link.answer(req.id, core.accepted("A = 1.25", value=1.25))
+    c.poll()
+    assert not c.link.params.booting
+    c.rx(mavlink.MAVLink_param_request_read_message(1, 1, b"A", -1))
+    (pv,) = c.sent("PARAM_VALUE")
+    assert pv.param_value == 1.25
+    c.rx(mavlink.MAVLink_mission_request_list_message(1, 1, TYPE_MISSION))
+    assert len(c.sent("MISSION_COUNT")) == 1
+
+
 # ---- GCS loss ---------------------------------------------------------------------------------------
 def test_gcs_loss_is_a_request_and_regain_a_statustext(tmp_path: Path) -> None:
     cfg = MavlinkConfig(state_dir=str(tmp_path), gcs_timeout_s=0.5, gcs_loss_action="hold")
