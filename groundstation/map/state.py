@@ -175,7 +175,8 @@ class PlanRecorder:
     """The plans as a tlog recorded their transfers: a MISSION_COUNT opens a plan of its mission type, its
     MISSION_ITEM_INTs fill it, an accepted MISSION_ACK of the same type commits it (an upload is acked by the
     vehicle, a download by the ground station; a refused or broken transfer commits nothing). An accepted
-    MISSION_CLEAR_ALL commits empty plans."""
+    MISSION_CLEAR_ALL commits empty plans; an accepted whole-plan upload (type ALL: goals and fence in one
+    transfer) commits both, its fence circles the fence and the rest the goals."""
 
     def __init__(self) -> None:
         self._open: dict[int, tuple[int, dict[int, Item]]] = {}
@@ -208,7 +209,14 @@ class PlanRecorder:
                 return [(t, []) for t in types]
             opened = self._open.pop(mt, None)
             if opened is not None and len(opened[1]) == opened[0]:
-                return [(mt, [opened[1][i] for i in range(opened[0])])]
+                items = [opened[1][i] for i in range(opened[0])]
+                if mt == mavlink.MAV_MISSION_TYPE_ALL:
+                    fence = mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+                    return [
+                        (mavlink.MAV_MISSION_TYPE_MISSION, [i for i in items if i.command != fence]),
+                        (mavlink.MAV_MISSION_TYPE_FENCE, [i for i in items if i.command == fence]),
+                    ]
+                return [(mt, items)]
         return []
 
 

@@ -506,6 +506,16 @@ def test_plan_recorder_commits_nothing_refused_or_incomplete() -> None:
     assert _feed(rec, broken) == []
 
 
+def test_plan_recorder_splits_an_accepted_whole_plan_upload() -> None:
+    goals = [goal_item(5.0, 0.0, 1.0, 0.0), goal_item(10.0, 5.0, 2.0, None)]
+    fence = [obstacle_item(2.0, 4.0, 1.5)]
+    rec = PlanRecorder()
+    assert _feed(rec, _transfer(goals + fence, mavlink.MAV_MISSION_TYPE_ALL, mavlink.MAV_MISSION_ERROR)) == []
+    got = _feed(rec, _transfer(goals + fence, mavlink.MAV_MISSION_TYPE_ALL, mavlink.MAV_MISSION_ACCEPTED))
+    assert [t for t, _ in got] == [0, 1]
+    assert goals_of(got[0][1]) == goals_of(goals) and obstacles_of(got[1][1]) == obstacles_of(fence)
+
+
 def test_plan_recorder_commits_empty_plans_on_an_accepted_clear_all() -> None:
     rec = PlanRecorder()
     clear = wire(mavlink.MAVLink_mission_clear_all_message(1, 1, mavlink.MAV_MISSION_TYPE_ALL), GCS)
