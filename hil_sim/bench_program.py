@@ -3,8 +3,9 @@
 The bench hosts the CAN hub (python-can-remote on 127.0.0.1) when its bus is ``remote``, and plays three
 nodes: the actuator node (consumes FIN_CMD / PROP_CMD through the E2E checks, moves the fins and the
 propeller with their limits and lag, goes to a latched failsafe when no valid command came for
-``actuator_timeout_periods`` control periods, reports FIN_STATUS / PROP_STATUS), the sensor node (AHRS,
-depth, DVL, position fix at their own rates with seeded noise) and the bench itself (SYNC in lock-step).
+``command_timeout_s``, counted in whole control periods; reports FIN_STATUS / PROP_STATUS), the sensor
+node (AHRS, depth, DVL, position fix at their own rates with seeded noise) and the bench itself (SYNC in
+lock-step).
 
 Time modes:
 
@@ -66,7 +67,8 @@ class BenchConfig:
     """The ``[bench]`` table.
 
     time_mode: realtime | lockstep. control_rate_hz: the control period (must match the onboard's).
-    sensor_profile: basin | sea. seed: all noise. actuator_timeout_periods: command watchdog.
+    sensor_profile: basin | sea. seed: all noise. command_timeout_s: the actuator node's command watchdog
+    (0 = the vehicle's ``[actuators] command_timeout_s``).
     echo_timeout_s: lock-step wall-clock deadline for the onboard's SYNC_ACK. duration_s: simulated seconds
     after the start (0 = until stopped). stop_on_state: onboard states that end the run (after
     ``stop_delay_s`` more simulated seconds). truth_log: CSV of truth + commands ("" = off). params: the
@@ -77,7 +79,7 @@ class BenchConfig:
     control_rate_hz: float = 20.0
     sensor_profile: Literal["basin", "sea"] = "basin"
     seed: int = 0
-    actuator_timeout_periods: int = 0  # 0 = the vehicle's [actuators] watchdog_timeout_periods
+    command_timeout_s: float = 0.0  # 0 = the vehicle's [actuators] command_timeout_s
     echo_timeout_s: float = 10.0
     duration_s: float = 0.0
     stop_on_state: tuple[str, ...] = ()
@@ -88,7 +90,7 @@ class BenchConfig:
 
     def __post_init__(self) -> None:
         require(1.0 <= self.control_rate_hz <= 200.0, "control_rate_hz must be within 1..200")
-        require(self.actuator_timeout_periods >= 0, "actuator_timeout_periods must be >= 0")
+        require(0.0 <= self.command_timeout_s <= 10.0, "command_timeout_s must be within 0..10 s")
         require(self.echo_timeout_s > 0.0, "echo_timeout_s must be > 0")
         require(self.duration_s >= 0.0 and self.stop_delay_s >= 0.0, "durations must be >= 0")
         for s in self.stop_on_state:
@@ -137,6 +139,15 @@ def load_hil_config(path: str | Path | None, overrides: dict[str, dict[str, Any]
 ONBOARD_HEARTBEAT_TIMEOUT_S = 3.0
 
 
+def timeout_periods(timeout_s: float, period_s: float) -> int:
+    """A timeout in seconds as the whole control periods the actuator node counts (rounded up, >= 1).
+
+    The node counts periods, never reads a clock, so lock-step runs repeat exactly; the configuration is in
+    seconds so one value means the same at every control rate.
+    """
+    return max(1, math.ceil(timeout_s / period_s - 1e-9))
+
+
 @dataclass
 class ActuatorNode:
     """Commands from the bus (already E2E-checked) into the watchdog; mode handling.
@@ -159,6 +170,10 @@ class ActuatorNode:
     onboard_state: m.MissionStateCode | None = None
     onboard_age_periods: int = 0
     refused_periods: int = 0
+    #: the most periods in a row without a valid command since the first one (the measurement behind the
+    #: timeout's default: ``max_gap_periods + 1`` periods is the longest time between two valid commands)
+    max_gap_periods: int = 0
+    commanded: bool = False  # a valid command has come (gaps count from then)
 
     def take(self, msg: m.BusMessage) -> None:
         if isinstance(msg, m.FinCmd):
@@ -218,8 +233,12 @@ class ActuatorNode:
         self.onboard_age_periods += 1
         was = self.watchdog.failsafe
         self.watchdog = watchdog_tick(self.watchdog, cmd, self.timeout_periods)
+        if self.watchdog.ticks_since_valid == 0:
+            self.commanded = True
+        elif self.commanded:
+            self.max_gap_periods = max(self.max_gap_periods, self.watchdog.ticks_since_valid)
         if self.watchdog.failsafe and not was:
-            log.warning("actuator failsafe: no valid command for %d periods", self.timeout_periods)
+            log.warning("actuator failsafe: no valid command for %d control periods", self.timeout_periods)
         self.fin_fresh = self.prop_fresh = False
         return watchdog_output(self.watchdog)
 
@@ -315,6 +334,8 @@ class BenchResult:
     rejected: dict[str, int] = field(default_factory=dict)
     stop_reason: str = ""
     run_wall_time_s: float = 0.0  # wall time from the start of simulated time to the end
+    command_timeout_s: float = 0.0  # the actuator node's command timeout
+    max_command_gap_s: float = 0.0  # the longest time between two valid commands (whole periods)
     _t_start_wall: float = 0.0
 
 
@@ -331,6 +352,14 @@ class Bench:
         self.setup: SimSetup = make_setup(
             params, cfg.bench.sensor_profile, current, control_period_s=1.0 / cfg.bench.control_rate_hz
         )
+        self.command_timeout_s = cfg.bench.command_timeout_s or params.config.actuators.command_timeout_s
+        log.info(
+            "integration step %.6g s (%d per control period of %.6g s; the model's largest step %.6g s)",
+            self.setup.step_s,
+            self.setup.substeps,
+            self.setup.control_period_s,
+            params.step_s,
+        )
         ini = cfg.initial
         body = BodyState(ini.x_m, ini.y_m, ini.depth_m, 0.0, 0.0, math.radians(ini.yaw_deg))
         self.state: SimState = initial_state(self.setup, body=body)
@@ -338,7 +367,7 @@ class Bench:
         # Pre-start samples (their count depends on how long the operator takes) use their own generator.
         self.idle_rng = np.random.default_rng([cfg.bench.seed, 1])
         self.node = ActuatorNode(
-            cfg.bench.actuator_timeout_periods or params.config.actuators.watchdog_timeout_periods,
+            timeout_periods(self.command_timeout_s, self.setup.control_period_s),
             heartbeat_timeout_periods=round(ONBOARD_HEARTBEAT_TIMEOUT_S * cfg.bench.control_rate_hz),
         )
         self.pending: list[Measurement] = []
@@ -468,6 +497,8 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
             result.run_wall_time_s = time.monotonic() - result._t_start_wall
         result.sim_time_s = bench.state.t_s
         result.failsafe_timeouts = bench.node.watchdog.timeouts
+        result.command_timeout_s = bench.command_timeout_s
+        result.max_command_gap_s = (bench.node.max_gap_periods + 1) * bench.setup.control_period_s
         result.rejected = dict(port.receiver.rejected)
         if log_file is not None:
             log_file.close()
@@ -727,15 +758,21 @@ def run_main(argv: list[str]) -> int:
     log.info("bench: %s, %s bus %s", cfg.bench.time_mode, cfg.bus.interface, cfg.bus.channel)
     try:
         result = run_bench(cfg, stop)
-    except (EchoTimeout, BusUnavailable, ConfigError, OSError) as exc:
+    except ConfigError as exc:  # e.g. the vehicle parameter file ([bench] params): one line, as above
+        print(f"auv-hil: {exc}", file=sys.stderr)
+        return 2
+    except (EchoTimeout, BusUnavailable, OSError) as exc:
         print(f"auv-hil: {exc}", file=sys.stderr)
         return 3 if isinstance(exc, EchoTimeout) else 1
     log.info(
-        "bench stopped (%s): %d ticks, %.1f s simulated in %.1f s",
+        "bench stopped (%s): %d ticks, %.1f s simulated in %.1f s; longest command gap %.3f s "
+        "(actuator command timeout %.3g s)",
         result.stop_reason or "signal",
         result.ticks,
         result.sim_time_s,
         result.wall_time_s,
+        result.max_command_gap_s,
+        result.command_timeout_s,
     )
     if args.summary_json:
         summary = {k: v for k, v in result.__dict__.items() if not k.startswith("_")}

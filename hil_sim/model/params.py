@@ -190,26 +190,33 @@ class PropulsionConfig:
 
 @dataclass(frozen=True)
 class ActuatorConfig:
-    """Fin angle/rate limits (deg, deg/s), propeller range (rev/s) and lag (s), watchdog timeout (periods)."""
+    """Fin angle/rate limits (deg, deg/s), propeller range (rev/s) and lag (s), and the actuator node's
+    command timeout (s): no valid command for that long latches its failsafe. In seconds, not control
+    periods, so one value means the same at every control rate (the bench counts it in whole periods, rounded
+    up)."""
 
     fin_limit_deg: float = 20.0
     fin_rate_degps: float = 40.0
     propeller_min_rps: float = -10.0
     propeller_max_rps: float = 30.0
     propeller_time_constant_s: float = 0.4
-    watchdog_timeout_periods: int = 5
+    command_timeout_s: float = 0.5
 
     def __post_init__(self) -> None:
         require(0.0 < self.fin_limit_deg <= 45.0, f"fin_limit_deg out of range (0, 45]: {self.fin_limit_deg}")
         require(0.0 < self.fin_rate_degps <= 1000.0, "fin_rate_degps out of range (0, 1000]")
         require(self.propeller_min_rps <= 0.0 < self.propeller_max_rps, "need propeller_min_rps <= 0 < max")
         require(self.propeller_time_constant_s > 0.0, "propeller_time_constant_s must be > 0")
-        require(self.watchdog_timeout_periods >= 1, "watchdog_timeout_periods must be >= 1")
+        require(
+            0.0 < self.command_timeout_s <= 10.0,
+            f"command_timeout_s out of range (0, 10]: {self.command_timeout_s}",
+        )
 
 
 @dataclass(frozen=True)
 class IntegrationConfig:
-    """RK4 step (s) and the control period (s) it must divide."""
+    """RK4 step (s) and the default control period (s) it divides. ``step_s`` is also the largest step the
+    bench uses at another control rate (:func:`hil_sim.model.sim.dividing_step_s`)."""
 
     step_s: float = 0.05
     control_period_s: float = 0.05

@@ -96,6 +96,18 @@ class StepResult:
     saturation: SaturationFlags
 
 
+def dividing_step_s(max_step_s: float, control_period_s: float) -> float:
+    """The largest integration step <= ``max_step_s`` that divides ``control_period_s`` (both > 0).
+
+    The params file's ``step_s`` is the largest step that keeps the model accurate (its accuracy test); any
+    control rate the bench allows has such a step: the period split into ceil(period / max_step) equal steps.
+    """
+    if not (max_step_s > 0.0 and control_period_s > 0.0):
+        raise ValueError("step_s and control_period_s must be > 0")
+    n = max(1, math.ceil(control_period_s / max_step_s - 1e-9))
+    return control_period_s / n
+
+
 def make_setup(
     params: VehicleParams,
     profile: str | SensorProfile = "basin",
@@ -103,11 +115,16 @@ def make_setup(
     step_s: float | None = None,
     control_period_s: float | None = None,
 ) -> SimSetup:
-    """Build a :class:`SimSetup`; defaults come from the params file. Raises ValueError on a bad step."""
+    """Build a :class:`SimSetup`; defaults come from the params file.
+
+    Without ``step_s`` the step is :func:`dividing_step_s` of the params file's ``step_s`` (an upper bound)
+    and the period, so every control rate works. An explicit ``step_s`` is taken as it is (an accuracy test
+    asks for exactly that step): ValueError when it does not divide the period.
+    """
     sensors = params.sensor_profiles[profile] if isinstance(profile, str) else profile
     cur = current if current is not None else CurrentParams.from_config(params.config.current)
-    h = params.step_s if step_s is None else step_s
     period = params.control_period_s if control_period_s is None else control_period_s
+    h = dividing_step_s(params.step_s, period) if step_s is None else step_s
     if not (h > 0.0 and period > 0.0):
         raise ValueError("step_s and control_period_s must be > 0")
     n = round(period / h)

@@ -93,7 +93,7 @@ class Autopilot(Protocol):
     """The pure core the loop drives (see :mod:`onboard.core.autopilot`)."""
 
     def step(self, cache: dict[type, BusMessage], now_s: float, dt_s: float) -> AutopilotOutput: ...
-    def note_overruns(self, consecutive: int) -> None: ...
+    def note_loop_late(self, late_s: float) -> None: ...
     def note_encode_fault(self, message_name: str, reason: str) -> None: ...
     def before_step(self) -> None: ...
 
@@ -107,6 +107,9 @@ class LoopStats:
     consecutive_overruns: int = 0
     #: the longest run of overruns in a row so far
     max_consecutive_overruns: int = 0
+    #: the longest time the loop was behind its schedule continuously (s): from the first deadline a run of
+    #: overrunning ticks missed to the end of its last tick (what the overrun failsafe judges)
+    max_late_s: float = 0.0
     missed_deadlines: int = 0
     encode_errors: int = 0
     #: frames not sent because they did not encode, by DBC message name
@@ -279,6 +282,7 @@ class ControlLoop:
         """Tick against deadlines on the monotonic clock until ``stop`` is set."""
         period = self.config.period_s
         next_s = self.clock()
+        late_since_s: float | None = None  # the first deadline missed by the current run of overruns
         while not stop.is_set():
             self._wait_until(next_s, stop)
             if stop.is_set():
@@ -288,19 +292,25 @@ class ControlLoop:
             self.take(self.port.drain())
             self.tick(now)
             next_s += period
-            if self.clock() > next_s:
+            end_s = self.clock()
+            if end_s > next_s:
                 self.stats.overruns += 1
                 self.stats.consecutive_overruns += 1
                 self.stats.max_consecutive_overruns = max(
                     self.stats.max_consecutive_overruns, self.stats.consecutive_overruns
                 )
-                self.autopilot.note_overruns(self.stats.consecutive_overruns)
+                if late_since_s is None:
+                    late_since_s = next_s
+                late_s = end_s - late_since_s
+                self.stats.max_late_s = max(self.stats.max_late_s, late_s)
+                self.autopilot.note_loop_late(late_s)
                 while next_s < self.clock():  # skip the deadlines already missed, keep the phase
                     next_s += period
                     self.stats.missed_deadlines += 1
             else:
                 self.stats.consecutive_overruns = 0
-                self.autopilot.note_overruns(0)
+                late_since_s = None
+                self.autopilot.note_loop_late(0.0)
 
     def run_lockstep(self, stop: threading.Event, idle_timeout_s: float | None = None) -> None:
         """One tick per SYNC frame until ``stop`` is set (or no SYNC for ``idle_timeout_s``)."""

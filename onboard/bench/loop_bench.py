@@ -141,8 +141,8 @@ class _TimedAutopilot:
             self.step_s.append(time.perf_counter() - t0)
         return out
 
-    def note_overruns(self, consecutive: int) -> None:
-        self.inner.note_overruns(consecutive)
+    def note_loop_late(self, late_s: float) -> None:
+        self.inner.note_loop_late(late_s)
 
     def note_encode_fault(self, message_name: str, reason: str) -> None:
         self.inner.note_encode_fault(message_name, reason)
@@ -273,7 +273,7 @@ class _StubAutopilot:
     def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> _StubOutput:
         return self._OUT
 
-    def note_overruns(self, consecutive: int) -> None:
+    def note_loop_late(self, late_s: float) -> None:
         pass
 
     def note_encode_fault(self, message_name: str, reason: str) -> None:

@@ -166,7 +166,7 @@ class Autopilot:
     path_goal_index: int = -1
     path_kind: str = ""  # "goal" or "loiter": what ``path`` flies
     planner_error: str = ""
-    consecutive_overruns: int = 0
+    loop_late_s: float = 0.0  # how long the loop has been behind its schedule (s), from note_loop_late
     last_nav: nav.NavState | None = None
     goals_reached: int = 0
     attempt: int = 1  # attempts at the current goal (1 = the first)
@@ -455,8 +455,9 @@ class Autopilot:
             self.autostart_pending = False
             self.handle(c.Start(None, "autostart: navigation valid"))
 
-    def note_overruns(self, consecutive: int) -> None:
-        self.consecutive_overruns = consecutive
+    def note_loop_late(self, late_s: float) -> None:
+        """How long the loop has been behind its schedule (s, 0 = on time): the next step's failsafe input."""
+        self.loop_late_s = late_s
 
     def note_encode_fault(self, message: str, reason: str) -> None:
         """The loop could not encode a command frame: a fault (an ABORT at the next tick when moving)."""
@@ -587,7 +588,7 @@ class Autopilot:
                 self._note(c.Severity.ERROR, fault)
         if self.status.active:
             result, self.failsafe_state = failsafe.check(
-                nav_state, self.consecutive_overruns > 0, self.failsafe_state, cfg.failsafe
+                nav_state, self.loop_late_s, self.failsafe_state, cfg.failsafe
             )
             fs_flags = result.flags
             if result.abort:

@@ -29,6 +29,7 @@ from hil_sim.bench_program import (
     HilConfig,
     InitialConfig,
     run_bench,
+    timeout_periods,
 )
 from hil_sim.model.params import load_params
 from onboard.protocol import messages as m
@@ -179,6 +180,12 @@ def start(onboard: FakeOnboard) -> Tick:
     return tick
 
 
+def _timeout_periods(cfg: HilConfig) -> int:
+    """The actuator node's command timeout in the control periods it counts."""
+    timeout_s = cfg.bench.command_timeout_s or load_params().config.actuators.command_timeout_s
+    return timeout_periods(timeout_s, 1.0 / cfg.bench.control_rate_hz)
+
+
 def failsafe_flags(tick: Tick) -> tuple[bool, bool]:
     fin = tick.one(m.FinStatus)
     prop = tick.one(m.PropStatus)
@@ -189,7 +196,7 @@ def failsafe_flags(tick: Tick) -> tuple[bool, bool]:
 # --- (a) the actuator failsafe ---------------------------------------------------------------------------
 def test_failsafe_fires_within_the_timeout_when_commands_stop_and_latches_until_safe() -> None:
     cfg = _config(_channel("failsafe"))
-    timeout = cfg.bench.actuator_timeout_periods or load_params().config.actuators.watchdog_timeout_periods
+    timeout = _timeout_periods(cfg)
     with bench_and_onboard(cfg) as (bench, onboard):
         # GIVEN a running bench that follows ARMED commands
         tick = start(onboard)
@@ -252,7 +259,7 @@ def test_actuator_heartbeat_reports_the_latched_failsafe() -> None:
 # --- (b) a corrupt command stream ---------------------------------------------------------------------------
 def test_corrupt_commands_are_rejected_counted_and_trigger_the_failsafe() -> None:
     cfg = _config(_channel("corrupt"))
-    timeout = cfg.bench.actuator_timeout_periods or load_params().config.actuators.watchdog_timeout_periods
+    timeout = _timeout_periods(cfg)
     codec = Codec()
     fin_id, prop_id = codec.frame_id(m.FinCmd), codec.frame_id(m.PropCmd)
     with bench_and_onboard(cfg) as (bench, onboard):

@@ -8,7 +8,11 @@ Checks (thresholds in the ``[failsafe]`` table, :class:`FailsafeParams`):
 - ``DEPTH_LIMIT``: depth below ``max_depth_m``.
 - ``AREA_BOUND``: horizontal position outside the operating rectangle [area_x_min_m, area_x_max_m] x
   [area_y_min_m, area_y_max_m] (NED, m).
-- ``OVERRUNS``: ``max_overruns_in_row`` loop overruns in a row (the loop says whether this tick overran).
+- ``OVERRUNS``: the loop has been behind its schedule continuously for more than ``max_loop_late_s`` (the
+  loop says how long: from the first deadline it missed to the end of its latest tick; 0 once a tick ends
+  before its next deadline). In seconds, not ticks, so the limit means the same at every control rate: one
+  stall of the process (a loaded machine) counts for its length, a loop too slow for its rate for the time
+  it keeps falling behind.
 
 Any of them -> ``FailsafeResult.abort`` with a reason; the loop feeds ``MissionEvent.FAILSAFE`` with that
 reason to the state machine and logs the flags in ``newly`` (set this tick) once, on the transition.
@@ -35,7 +39,7 @@ class FailsafeParams:
     - ``nav_timeout_s``: max age of attitude and depth, s.
     - ``max_depth_m``: depth limit, m.
     - ``area_x_min_m``, ``area_x_max_m``, ``area_y_min_m``, ``area_y_max_m``: operating rectangle, NED m.
-    - ``max_overruns_in_row``: loop overruns in a row that abort.
+    - ``max_loop_late_s``: the loop behind its schedule continuously for longer than this aborts, s.
     - ``abort_stern_deg``: nose-up stern deflection of the abort command, deg (> 0; sent as negative stern).
     """
 
@@ -45,7 +49,7 @@ class FailsafeParams:
     area_x_max_m: float = 500.0
     area_y_min_m: float = -500.0
     area_y_max_m: float = 500.0
-    max_overruns_in_row: int = 10
+    max_loop_late_s: float = 0.5
     abort_stern_deg: float = 15.0
     abort_stern_rad: float = field(init=False, repr=False)
 
@@ -54,7 +58,10 @@ class FailsafeParams:
         require(self.max_depth_m > 0.0, f"max_depth_m must be > 0, got {self.max_depth_m}")
         require(self.area_x_min_m < self.area_x_max_m, "need area_x_min_m < area_x_max_m")
         require(self.area_y_min_m < self.area_y_max_m, "need area_y_min_m < area_y_max_m")
-        require(self.max_overruns_in_row >= 1, "max_overruns_in_row must be >= 1")
+        require(
+            0.01 <= self.max_loop_late_s <= 10.0,
+            f"max_loop_late_s must be in [0.01, 10] s, got {self.max_loop_late_s:g}",
+        )
         require(0.0 <= self.abort_stern_deg <= 45.0, "abort_stern_deg must be in [0, 45]")
         object.__setattr__(self, "abort_stern_rad", math.radians(self.abort_stern_deg))
 
@@ -70,9 +77,8 @@ class FailsafeFlag(enum.IntFlag):
 
 @dataclass(frozen=True)
 class FailsafeState:
-    """The failsafe memory: overruns in a row and the flags of the previous check."""
+    """The failsafe memory: the flags of the previous check."""
 
-    overruns_in_row: int = 0
     flags: FailsafeFlag = FailsafeFlag(0)  # noqa: RUF009 (an immutable IntFlag value)
 
 
@@ -97,9 +103,10 @@ _ALL_PASS = FailsafeResult(abort=False, flags=_NO_FLAGS, newly=_NO_FLAGS, reason
 
 
 def check(
-    nav: NavState, overran: bool, state: FailsafeState, params: FailsafeParams
+    nav: NavState, loop_late_s: float, state: FailsafeState, params: FailsafeParams
 ) -> tuple[FailsafeResult, FailsafeState]:
-    """Run every failsafe check on the navigation solution ``nav`` and this tick's overrun flag."""
+    """Run every failsafe check on the navigation solution ``nav`` and how long the loop has been behind its
+    schedule, ``loop_late_s`` (s, 0 = on time)."""
     flags = 0
     reasons: list[str] = []
 
@@ -120,15 +127,16 @@ def check(
     ):
         flags |= _AREA_BOUND
         reasons.append(f"position ({nav.x_m:.1f}, {nav.y_m:.1f}) m outside the operating area")
-    overruns = state.overruns_in_row + 1 if overran else 0
-    if overruns >= params.max_overruns_in_row:
+    if loop_late_s > params.max_loop_late_s:
         flags |= _OVERRUNS
-        reasons.append(f"{overruns} loop overruns in a row")
+        reasons.append(
+            f"control loop behind its schedule for {loop_late_s:.2f} s (limit {params.max_loop_late_s:g} s)"
+        )
 
-    if overruns == state.overruns_in_row and flags == state.flags:
+    if flags == state.flags:
         new_state = state  # unchanged (immutable): no new object
     else:
-        new_state = FailsafeState(overruns_in_row=overruns, flags=FailsafeFlag(flags))
+        new_state = FailsafeState(flags=FailsafeFlag(flags))
     if not flags:
         return _ALL_PASS, new_state
     newly = FailsafeFlag(flags & ~int(state.flags))

@@ -52,7 +52,7 @@ class StubAutopilot:
             return ABORT
         return Out(rudder_rad=math.radians(rudder))
 
-    def note_overruns(self, consecutive: int) -> None:
+    def note_loop_late(self, late_s: float) -> None:
         pass
 
     def before_step(self) -> None:

@@ -1,4 +1,4 @@
-"""Unit tests of the failsafes: each check, overruns in a row, logging once, the abort command."""
+"""Unit tests of the failsafes: each check, the loop late for too long, logging once, the abort command."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ OK = nav_state_at(0.0, 0.0, 1.0)
 
 
 def test_healthy_navigation_passes() -> None:
-    result, _ = check(OK, False, FailsafeState(), P)
+    result, _ = check(OK, 0.0, FailsafeState(), P)
     assert not result.abort and result.flags == FailsafeFlag(0) and result.reason == ""
 
 
@@ -42,32 +42,34 @@ def test_healthy_navigation_passes() -> None:
 )
 def test_each_check_requests_abort(nav: NavState, flag: FailsafeFlag) -> None:
     # GIVEN one failing condition  WHEN checked  THEN abort with that flag and a reason
-    result, state = check(nav, False, FailsafeState(), P)
+    result, state = check(nav, 0.0, FailsafeState(), P)
     assert result.abort and result.flags == flag and result.newly == flag
     assert result.reason
     # and the next tick with the same condition does not report it as new (log once)
-    again, _ = check(nav, False, state, P)
+    again, _ = check(nav, 0.0, state, P)
     assert again.abort and again.newly == FailsafeFlag(0)
 
 
 def test_dvl_loss_alone_is_not_stale_navigation() -> None:
     nav = dataclasses.replace(OK, conditions=NavCondition.DVL_STALE | NavCondition.POSITION_STALE)
-    assert not check(nav, False, FailsafeState(), P)[0].abort
+    assert not check(nav, 0.0, FailsafeState(), P)[0].abort
 
 
-def test_overruns_must_be_in_a_row() -> None:
-    # GIVEN max_overruns_in_row = 3
-    params = dataclasses.replace(P, max_overruns_in_row=3)
+def test_the_loop_late_for_longer_than_the_limit_aborts() -> None:
+    # GIVEN max_loop_late_s = 0.3 s
+    params = dataclasses.replace(P, max_loop_late_s=0.3)
     state = FailsafeState()
-    # WHEN two overruns, a good tick, then three overruns
-    pattern = [True, True, False, True, True, True]
+    # WHEN the loop reports itself behind its schedule for these times, tick by tick (0 = on time)
     aborts = []
-    for overran in pattern:
-        result, state = check(OK, overran, state, params)
+    for late_s in [0.0, 0.12, 0.0, 0.1, 0.2, 0.3, 0.31]:
+        result, state = check(OK, late_s, state, params)
         aborts.append(result.abort)
-    # THEN only the third overrun in a row aborts
-    assert aborts == [False, False, False, False, False, True]
-    assert result.flags == FailsafeFlag.OVERRUNS and "3 loop overruns" in result.reason
+    # THEN only lateness beyond the limit aborts (a stall shorter than it, however many periods, does not)
+    assert aborts == [False, False, False, False, False, False, True]
+    assert (
+        result.flags == FailsafeFlag.OVERRUNS
+        and "behind its schedule for 0.31 s (limit 0.3 s)" in result.reason
+    )
 
 
 def test_abort_command_is_propeller_off_fins_to_surface() -> None:
@@ -82,7 +84,13 @@ def test_abort_command_is_propeller_off_fins_to_surface() -> None:
 
 
 @pytest.mark.parametrize(
-    "table", [{"area_x_min_m": 10.0, "area_x_max_m": 0.0}, {"max_overruns_in_row": 0}, {"bogus": 1}]
+    "table",
+    [
+        {"area_x_min_m": 10.0, "area_x_max_m": 0.0},
+        {"max_loop_late_s": 0.0},
+        {"max_loop_late_s": math.inf},
+        {"bogus": 1},
+    ],
 )
 def test_bad_failsafe_config(table: dict[str, object]) -> None:
     with pytest.raises(ConfigError):

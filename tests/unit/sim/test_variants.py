@@ -132,7 +132,7 @@ def test_a_set_changes_one_value(cfg: VehicleConfig) -> None:
         ("fins.area_m2", 0.035, 0.035),
         ("actuators.fin_limit_deg", 18, 18.0),  # int -> float as the TOML reader does
         ("sensors.sea.fix_std_m", 1.5, 1.5),
-        ("actuators.watchdog_timeout_periods", 7, 7),
+        ("actuators.command_timeout_s", 1, 1.0),
     ):
         before, after = _flat(cfg), _flat(vary_config(cfg, sets={key: value}))
         assert {k for k in before if before[k] != after[k]} == {key}
@@ -169,7 +169,11 @@ def test_sets_then_scale(cfg: VehicleConfig) -> None:
         (None, {"fins.area_m2": "big"}, r"^vehicle\.set\.fins\.area_m2: expected a number, got 'big'$"),
         (None, {"fins.area_m2": 0.5}, r"^vehicle\.set\.fins\.area_m2: area_m2 out of range"),
         (None, {"sensors.sea.fix_std_m": -1.0}, r"^vehicle\.set\.sensors\.sea\.fix_std_m: "),
-        (None, {"actuators.watchdog_timeout_periods": 2.5}, r"^vehicle\.set\.actuators\.watchdog_.*integer"),
+        (
+            None,
+            {"actuators.command_timeout_s": 0.0},
+            r"^vehicle\.set\.actuators\.command_timeout_s: .*\(0, 10\]",
+        ),
         ({"fin_lift": 1.0}, [("fins.area_m2", 1)], r"^vehicle\.set: expected a mapping"),
     ],
 )
