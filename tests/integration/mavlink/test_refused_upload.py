@@ -20,11 +20,11 @@ from groundstation.mavclient import MavClient, state_from_heartbeat
 from groundstation.mission_files import goal_item, obstacle_item
 from hil_sim.scenario import gcs_command
 
-OLD_GOALS = [goal_item(40.0, 0.0, 1.0, None), goal_item(40.0, 20.0, 1.0, None)]
+OLD_GOALS = [goal_item(80.0, 0.0, 1.0, None), goal_item(80.0, 20.0, 1.0, None)]  # a long run
 OLD_FENCE = [obstacle_item(-30.0, -30.0, 2.0)]
 NEW_PLAN = """goals:
   - {x_m: 5.0, y_m: 0.0, depth_m: 1.0}
-  - {x_m: 40.0, y_m: 20.0, depth_m: 1.0}
+  - {x_m: 80.0, y_m: 20.0, depth_m: 1.0}
 obstacles:
   - {x_m: 0.0, y_m: 0.0, radius_m: 15.0}
 """
