@@ -8,8 +8,12 @@ configuration's value; its ``[min, max]`` is the intersection of
 - the operator range declared below (``sane``: the widest value anyone could mean, for keys the
   configuration does not bound, e.g. the PD gains; widened to include the configured value),
 - the configuration dataclass's own rules, *read from the dataclass* by trying values (no rule is
-  written twice): the closure of the accepted values, so an open bound such as ``rudder_limit_deg > 0``
-  gives ``min = 0`` and 0 itself is refused with the dataclass's own reason,
+  written twice): the closure of the accepted values. Every bound the rules give is closed and means
+  something: a key whose 0 is refused declares a meaningful minimum beside its rule (e.g.
+  ``FIN_LIMIT_MIN_DEG`` in ``onboard.core.control.actuators``: ``rudder_limit_deg >= 1``), never an open
+  ``> 0`` that a subnormal 1.4e-45 passes; so the configuration file and the parameter agree (a file value
+  below the minimum stops start-up), the minimum is served as the parameter's ``min`` and a PARAM_SET
+  below it is refused with the dataclass's reason, which states it,
 - the DBC signal ranges of the command frames (:class:`BusLimits`, read from the DBC by the app), so no
   value in range can make a FIN_CMD / PROP_CMD that the codec refuses to encode.
 
@@ -293,7 +297,8 @@ def _config_bound(leaf: Any, key: str, start: float, end: float) -> float:
 
     ``end`` if accepted; else the boundary found by bisection to the last float, taken as the closure
     (of the two neighbouring floats at the boundary, the one the rule's constant is: the shorter number),
-    so ``x > 0`` gives 0 and ``x <= 45`` gives 45.
+    so ``x >= 1`` gives 1 and ``x <= 45`` gives 45 (an open ``x > 0`` would give 0, itself refused: the
+    rules declare closed, meaningful bounds instead, see the module docstring).
     """
     if _refusal(leaf, key, end) is None:
         return end
@@ -414,8 +419,9 @@ def apply_param(config: CoreConfig, name: str, value: float, bus_limits: BusLimi
         new = int(value)
     if not spec.min <= value <= spec.max:
         own = _refusal(leaf, key, new)
-        if own is not None:
-            raise ParamError(f"{name} = {value:g} refused: {own}")
+        allowed = f"allowed [{spec.min:g}, {_fmt(spec.max, spec.unit)}]"
+        if own is not None:  # the configuration's reason, and the range it gives with the values in force
+            raise ParamError(f"{name} = {value:g} refused: {own}; {allowed}")
         low = value < spec.min
         bound, why = (spec.min, b.lo_why) if low else (spec.max, b.hi_why)
         raise ParamError(

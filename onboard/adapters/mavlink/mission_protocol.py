@@ -64,6 +64,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from onboard.adapters.mavlink.peers import Sender
 from onboard.core.mission.model import Goal, Mission, Obstacle
+from onboard.core.mission.validate import Problem, check_goal_values
 from onboard.protocol.conventions import wrap_pi
 
 LOCAL_SCALE = 1e4  # MISSION_ITEM_INT local x/y: metres * 1e4
@@ -250,7 +251,9 @@ def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION error code of the first failing format check on one item.
 
     Format only: the command, the frame, every number NaN or finite, lat/lon within range in the global
-    frames. Whether the vehicle can fly it (area, depth, yaw, radius, counts, plan) is the validator's.
+    frames, and a waypoint's yaw (param4) NaN or within +-360 deg, the validator's rule asked here because
+    only the item has the yaw as sent (:func:`goal_yaw_problem` -> MAV_MISSION_INVALID_PARAM4). Whether the
+    vehicle can fly it (area, depth, radius, counts, plan) is the validator's.
     With ``seq`` given, a home item at seq 0 (:func:`is_home_item`) gets :func:`check_home_item` instead.
     An item of a whole-plan upload (MAV_MISSION_TYPE_ALL) is checked as an item of its plan.
     """
@@ -268,13 +271,28 @@ def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq:
         return mavlink.MAV_MISSION_UNSUPPORTED
     if item.frame not in SUPPORTED_FRAMES:
         return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
-    return _check_numbers(item, z_finite=False)
+    code = _check_numbers(item, z_finite=False)
+    if code == mavlink.MAV_MISSION_ACCEPTED and mission_type == TYPE_MISSION:
+        if goal_yaw_problem(item, limits, 0 if seq is None else seq) is not None:
+            return mavlink.MAV_MISSION_INVALID_PARAM4
+    return code
 
 
-def goal_from_item(item: MissionItem, limits: MissionLimits) -> Goal:
-    """The goal pose of a checked waypoint item (yaw degrees -> radians, NaN -> None)."""
+def goal_yaw_problem(item: MissionItem, limits: MissionLimits, index: int) -> Problem | None:
+    """The validator's yaw rule (:func:`~onboard.core.mission.validate.check_goal_values`: NaN or within
+    +-360 deg) on a waypoint item's param4 as sent, before :func:`goal_from_item` wraps it; the problem names
+    goal ``index``. None when the yaw is good."""
+    goal = goal_from_item(item, limits, wrap=False)
+    return next((p for p in check_goal_values(index, goal) if p.field == "yaw"), None)
+
+
+def goal_from_item(item: MissionItem, limits: MissionLimits, *, wrap: bool = True) -> Goal:
+    """The goal pose of a checked waypoint item (yaw degrees -> radians, wrapped into (-pi, pi] unless
+    ``wrap`` is False; NaN -> None)."""
     x_m, y_m, depth_m = item_position(item, limits)
-    yaw_rad = None if math.isnan(item.param4) else wrap_pi(math.radians(item.param4))
+    yaw_rad = None if math.isnan(item.param4) else math.radians(item.param4)
+    if wrap and yaw_rad is not None:
+        yaw_rad = wrap_pi(yaw_rad)
     return Goal(x_m=x_m, y_m=y_m, depth_m=depth_m, yaw_rad=yaw_rad)
 
 
@@ -447,7 +465,8 @@ class MissionServer:
         return self._upload.sender if self._upload is not None else None
 
     def take_refusals(self) -> list[tuple[Sender, str]]:
-        """(sender, why) of each transfer refused because another was in progress, since the last call."""
+        """(sender, why) of each transfer refused because another was in progress, or because of a goal's
+        yaw (the item's reason), since the last call."""
         out, self._refusals = self._refusals, []
         return out
 
@@ -635,6 +654,11 @@ class MissionServer:
         if result != mavlink.MAV_MISSION_ACCEPTED or item is None:
             self._upload = None
             self.stats.uploads_rejected += 1
+            if item is not None and result == mavlink.MAV_MISSION_INVALID_PARAM4:
+                goals = [i for i in up.items if mt != TYPE_ALL or plan_of_item(i) == TYPE_MISSION]
+                problem = goal_yaw_problem(item, self.limits, len(goals) - home_offset(goals))
+                if problem is not None:  # the operator reads which goal and why, not only PARAM4
+                    self._refusals.append((sender, f"mission upload refused: {problem}"))
             return [self._ack(sender, result, mt)]
         up.items.append(item)
         up.last_rx_s = now_s

@@ -65,12 +65,23 @@ class ActuatorCommand:
 NEUTRAL = ActuatorCommand(0.0, 0.0, 0.0, 0.0)
 
 
+#: The smallest fin angle limit that means a fin (rudder, each stern plane), deg: the steady-turn table's
+#: widest turn (50 m) needs 1.2 deg of rudder, so a limit below 1 deg cannot steer (and a subnormal one is
+#: no limit anyone means). Stated here once; the parameter table serves it as the minimum.
+FIN_LIMIT_MIN_DEG = 1.0
+#: The smallest propeller speed range (max - min) that means a propeller, rev/s: below 1 rps (100 DBC
+#: steps) the vehicle has no steerage way; a subnormal maximum is a stopped propeller that looks armed.
+PROPELLER_SPAN_MIN_RPS = 1.0
+
+
 @dataclass(frozen=True)
 class ActuatorLimits:
     """The ``[control.limits]`` table: angle, speed and rate limits. A rate limit of 0 disables it.
 
-    - ``rudder_limit_deg``, ``stern_limit_deg``: |angle| limits of the rudder and of each stern plane, deg.
-    - ``propeller_min_rps``, ``propeller_max_rps``: propeller speed range, rev/s.
+    - ``rudder_limit_deg``, ``stern_limit_deg``: |angle| limits of the rudder and of each stern plane, deg,
+      in [:data:`FIN_LIMIT_MIN_DEG`, 45].
+    - ``propeller_min_rps``, ``propeller_max_rps``: propeller speed range, rev/s (max at least
+      :data:`PROPELLER_SPAN_MIN_RPS` above min).
     - ``fin_rate_limit_degps``: max fin angle rate, deg/s; ``propeller_rate_limit_rps_per_s``: rev/s^2.
     """
 
@@ -85,11 +96,14 @@ class ActuatorLimits:
     fin_rate_limit_radps: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        require(0.0 < self.rudder_limit_deg <= 45.0, "rudder_limit_deg must be in (0, 45]")
-        require(0.0 < self.stern_limit_deg <= 45.0, "stern_limit_deg must be in (0, 45]")
+        lo = FIN_LIMIT_MIN_DEG
+        require(lo <= self.rudder_limit_deg <= 45.0, f"rudder_limit_deg must be in [{lo:g}, 45] deg")
+        require(lo <= self.stern_limit_deg <= 45.0, f"stern_limit_deg must be in [{lo:g}, 45] deg")
+        require(self.propeller_min_rps >= 0.0, "propeller_min_rps must be >= 0")
+        least = self.propeller_min_rps + PROPELLER_SPAN_MIN_RPS
         require(
-            0.0 <= self.propeller_min_rps < self.propeller_max_rps,
-            "need 0 <= propeller_min_rps < propeller_max_rps",
+            self.propeller_max_rps >= least,
+            f"propeller_max_rps must be >= {least:g} rps (propeller_min_rps + {PROPELLER_SPAN_MIN_RPS:g})",
         )
         require(self.fin_rate_limit_degps >= 0.0, "fin_rate_limit_degps must be >= 0 (0 = off)")
         require(self.propeller_rate_limit_rps_per_s >= 0.0, "propeller_rate_limit_rps_per_s must be >= 0")

@@ -55,16 +55,24 @@ from onboard.protocol.conventions import wrap_pi
 
 GuidanceMode = Literal["track", "los", "ilos"]
 
+#: The slowest path speed that means one, m/s: a fin's force goes with the square of the speed through the
+#: water, so below 0.1 m/s it has 1 % of its force at 1 m/s and the vehicle cannot steer.
+SPEED_MIN_MPS = 0.1
+#: The shortest LOS lookahead that means one, m: the LOS heading is atan(e_y / Delta), and the estimate's
+#: cross-track noise is decimetres, so below 0.5 m it swings through +-90 deg on the noise.
+LOOKAHEAD_MIN_M = 0.5
+
 
 @dataclass(frozen=True)
 class GuidanceParams:
     """The ``[guidance]`` table. Every key is optional.
 
     - ``mode``: ``"track"`` (paper), ``"los"`` or ``"ilos"``.
-    - ``speed_mps``: desired (uniform) speed U along the path, m/s.
-    - ``lookahead_m``: LOS lookahead distance Delta, m; ``lookahead_time_s``: with > 0, Fossen's
-      speed-dependent lookahead Delta = max(``lookahead_m``, U * this) with U the speed over ground (s),
-      so a faster vehicle (a following current) converges on the path over the same time, not distance.
+    - ``speed_mps``: desired (uniform) speed U along the path, m/s (>= :data:`SPEED_MIN_MPS`).
+    - ``lookahead_m``: LOS lookahead distance Delta, m (>= :data:`LOOKAHEAD_MIN_M`); ``lookahead_time_s``:
+      with > 0, Fossen's speed-dependent lookahead Delta = max(``lookahead_m``, U * this) with U the speed
+      over ground (s), so a faster vehicle (a following current) converges on the path over the same time,
+      not distance.
     - ``ilos_gain``: ILOS integral gain sigma (dimensionless).
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
     - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
@@ -124,8 +132,14 @@ class GuidanceParams:
     crab_max_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        require(self.speed_mps > 0.0, f"speed_mps must be > 0, got {self.speed_mps}")
-        require(self.lookahead_m > 0.0, f"lookahead_m must be > 0, got {self.lookahead_m}")
+        require(
+            self.speed_mps >= SPEED_MIN_MPS,
+            f"speed_mps must be >= {SPEED_MIN_MPS:g} m/s, got {self.speed_mps:g}",
+        )
+        require(
+            self.lookahead_m >= LOOKAHEAD_MIN_M,
+            f"lookahead_m must be >= {LOOKAHEAD_MIN_M:g} m, got {self.lookahead_m:g}",
+        )
         require(self.lookahead_time_s >= 0.0, f"lookahead_time_s must be >= 0, got {self.lookahead_time_s}")
         require(self.ilos_gain >= 0.0, f"ilos_gain must be >= 0, got {self.ilos_gain}")
         require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")

@@ -9,13 +9,17 @@ from auv_common.config import require
 
 EndAction = Literal["surface", "loiter"]
 
+#: The smallest arrival radius that means one, m: the navigation estimate is good to decimetres (a fix's
+#: sigma is 0.3 m), so a radius below 0.1 m turns every arrival into a miss.
+ARRIVAL_RADIUS_MIN_M = 0.1
+
 
 @dataclass(frozen=True)
 class MissionParams:
     """How a mission is flown and judged. Every key is optional.
 
     - ``arrival_radius_m``: a goal is reached when the vehicle's estimate crosses the goal line within this
-      horizontal distance of the goal; farther off it is a miss.
+      horizontal distance of the goal; farther off it is a miss (>= :data:`ARRIVAL_RADIUS_MIN_M`).
     - ``max_tries``: attempts at one goal (the first and the re-plans after a miss); then HOLD.
     - ``end_action``: after the last goal: ``surface`` (propeller 0 and fins neutral at once, the positively
       buoyant vehicle floats up; disarmed) or ``loiter`` (circle the last goal at its depth; armed).
@@ -34,8 +38,8 @@ class MissionParams:
 
     def __post_init__(self) -> None:
         require(
-            0.0 < self.arrival_radius_m <= 50.0,
-            f"arrival_radius_m must be in (0, 50], got {self.arrival_radius_m}",
+            ARRIVAL_RADIUS_MIN_M <= self.arrival_radius_m <= 50.0,
+            f"arrival_radius_m must be in [{ARRIVAL_RADIUS_MIN_M:g}, 50] m, got {self.arrival_radius_m:g}",
         )
         require(1 <= self.max_tries <= 20, f"max_tries must be 1..20, got {self.max_tries}")
         require(

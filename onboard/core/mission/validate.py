@@ -6,7 +6,9 @@ no clock, no I/O; a caller with a deadline passes ``expired`` (polled between le
 Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is no second copy of one):
 
 1. Values: every number is finite (:meth:`Goal.invalid_fields`, the model's one rule); a goal's yaw is
-   finite or None (free).
+   None (free; NaN on the wire) or within +-360 deg (:data:`YAW_LIMIT_RAD`), judged as the door received
+   it, before any wrap into (-180, 180] (:func:`check_goal_values`, which every door asks: MAVLink items,
+   mission files, persisted plans, campaign specs).
 2. Counts: ``1 <= len(goals) <= [mission] max_goals`` and ``len(obstacles) <= [mission] max_obstacles``.
 3. Goals: x and y inside the failsafe operating rectangle ``[failsafe] area_x_min_m..area_x_max_m`` x
    ``area_y_min_m..area_y_max_m`` (a goal outside it would abort the run on arrival); depth in
@@ -59,6 +61,10 @@ _FIELD_OF: dict[str, Field] = {
     "yaw_rad": "yaw",
     "radius_m": "radius",
 }
+#: The largest |yaw| of a goal, rad (360 deg; MAVLink's param4 is degrees): a heading anyone means is
+#: within one turn either way. A larger one (999) is a typing or unit mistake, refused, never wrapped into
+#: some other heading (the first version's rule, MAV_MISSION_INVALID_PARAM4 on MAVLink).
+YAW_LIMIT_RAD = math.radians(360.0)
 #: Start headings of leg 1 when goal 0's arrival heading is unknown (after the straight one), rad.
 _FALLBACK_YAWS_RAD = tuple(math.radians(45.0 * k) for k in range(1, 8))
 
@@ -145,8 +151,22 @@ def _not_finite(item: Item, index: int, obj: Goal | Obstacle) -> list[Problem]:
 
 
 def check_goal_values(index: int, goal: Goal) -> list[Problem]:
-    """The configuration-free rules of one goal: every number finite (yaw finite or None)."""
-    return _not_finite("goal", index, goal)
+    """The configuration-free rules of one goal: every number finite; the yaw None (free) or within
+    +-:data:`YAW_LIMIT_RAD`. A door asks it with the yaw as received (degrees to radians, not wrapped)."""
+    out = _not_finite("goal", index, goal)
+    yaw = goal.yaw_rad
+    if yaw is not None and "yaw_rad" not in goal.invalid_fields() and abs(yaw) > YAW_LIMIT_RAD:
+        limit_deg = _fmt(math.degrees(YAW_LIMIT_RAD))
+        out.append(
+            Problem(
+                "goal",
+                index,
+                "yaw",
+                f"yaw {_fmt(math.degrees(yaw))} deg is outside [-{limit_deg}, {limit_deg}] deg "
+                "(leave it out, or NaN, for a free heading)",
+            )
+        )
+    return out
 
 
 def check_obstacle_values(index: int, obstacle: Obstacle) -> list[Problem]:
@@ -380,6 +400,7 @@ __all__ = [
     "INT32_MAX",
     "MAVLINK_LOCAL_SCALE",
     "MISSION_INDEX",
+    "YAW_LIMIT_RAD",
     "MissionCheck",
     "Problem",
     "check_goal_values",

@@ -25,6 +25,17 @@ _DEFAULT_MAP_RADIUS_M = (3.0, 5.0, 10.0, 20.0, 50.0)
 _DEFAULT_MAP_RUDDER_DEG = (20.0, 12.0, 6.0, 3.0, 1.2)
 
 
+#: The tightest turning radius that means one, m: a fin-steered torpedo AUV of 1.6 m turns on metres
+#: (this one on 2.9 m); below 0.5 m the Dubins geometry is a point turn nobody flies (0 = none).
+TURNING_RADIUS_MIN_M = 0.5
+#: The flattest depth slope that means one: 1 cm of depth per metre of path (a 1 m depth change over 100 m).
+DEPTH_SLOPE_MIN = 0.01
+#: The smallest scale of the cost weights that means one (the largest weight, J per metre or radian):
+#: the weights are relative, but a cost scale below 1e-3 (or subnormal, where the floats lose their
+#: precision) is no choice anyone means.
+WEIGHT_SCALE_MIN = 1e-3
+
+
 def _check(condition: bool, reason: str, message: str) -> None:
     """Like ``auv_common.config.require``, but the error also carries a planner ``reason``."""
     if not condition:
@@ -40,14 +51,15 @@ class PlannerConfig:
     """Parameters of the homing path planner (paper section 3).
 
     Attributes:
-        turning_radius_m: minimum turning radius r_min of the vehicle (m), > 0.
+        turning_radius_m: minimum turning radius r_min of the vehicle (m), >= :data:`TURNING_RADIUS_MIN_M`.
         obstacle_margin_m: clearance added to every obstacle radius (m), >= 0; the inflated radius is
             ``max(R + margin, r_min)`` so the vehicle can fly an obstacle's boundary as an arc.
         weight_distance: Wd of eq. (2) (1/m), >= 0.
         weight_yaw: Wpsi of eq. (2), per radian of cumulative |yaw change| (1/rad), >= 0.
-        weight_rudder: WdR of eq. (2), per rad*m of cumulative rudder (1/(rad m)), >= 0.
+        weight_rudder: WdR of eq. (2), per rad*m of cumulative rudder (1/(rad m)), >= 0. The largest of the
+            three is >= :data:`WEIGHT_SCALE_MIN`.
         max_depth_slope: largest |d depth / d s| along the path (dimensionless, tan of the flight-path
-            angle), > 0.
+            angle), >= :data:`DEPTH_SLOPE_MIN`.
         rudder_map_radius_m: radii of the steady-turn table (m), strictly increasing, > 0.
         rudder_map_rudder_deg: rudder magnitude for each radius (deg), >= 0.
         goal_run_in_m: a goal with a heading is approached along a straight of this length ending at it
@@ -89,11 +101,19 @@ class PlannerConfig:
 
     def __post_init__(self) -> None:
         r = self.turning_radius_m
-        _check(_finite(r) and r > 0.0, "radius", f"turning_radius_m must be positive and finite, got {r!r}")
+        _check(
+            _finite(r) and r >= TURNING_RADIUS_MIN_M,
+            "radius",
+            f"turning_radius_m must be >= {TURNING_RADIUS_MIN_M:g} m and finite, got {r!r}",
+        )
         m = self.obstacle_margin_m
         _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
         t = self.min_turning_radius_m
-        _check(_finite(t) and t >= 0.0, "config", f"min_turning_radius_m must be >= 0 and finite, got {t!r}")
+        _check(
+            _finite(t) and (t == 0.0 or t >= TURNING_RADIUS_MIN_M),
+            "config",
+            f"min_turning_radius_m must be 0 (none) or >= {TURNING_RADIUS_MIN_M:g} m and finite, got {t!r}",
+        )
         mm = self.min_obstacle_margin_m
         _check(
             mm is None or (_finite(mm) and mm >= 0.0),
@@ -107,9 +127,17 @@ class PlannerConfig:
         weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
         for name, w in zip(("weight_distance", "weight_yaw", "weight_rudder"), weights, strict=True):
             _check(_finite(w) and w >= 0.0, "config", f"{name} must be >= 0 and finite, got {w!r}")
-        _check(sum(weights) > 0.0, "config", "at least one of the cost weights must be positive")
+        _check(
+            max(weights) >= WEIGHT_SCALE_MIN,
+            "config",
+            f"at least one of the cost weights must be >= {WEIGHT_SCALE_MIN:g}",
+        )
         s = self.max_depth_slope
-        _check(_finite(s) and s > 0.0, "config", f"max_depth_slope must be positive and finite, got {s!r}")
+        _check(
+            _finite(s) and s >= DEPTH_SLOPE_MIN,
+            "config",
+            f"max_depth_slope must be >= {DEPTH_SLOPE_MIN:g} and finite, got {s!r}",
+        )
         radii, rudders = self.rudder_map_radius_m, self.rudder_map_rudder_deg
         _check(len(radii) >= 1, "config", "rudder_map_radius_m must have at least one entry")
         _check(

@@ -31,13 +31,21 @@ from auv_common.config import require
 from onboard.core.control.actuators import ActuatorCommand
 from onboard.core.nav.types import NavState
 
+#: The shortest navigation timeout that means one, s: the AHRS and the depth sensor send at 20 Hz
+#: (``hil_sim/params/isimi100.toml``), so a shorter timeout aborts on data as fresh as they send it (and a
+#: subnormal one on every tick). The parameter table serves it as FS_NAV_TMO_S's minimum.
+NAV_TIMEOUT_MIN_S = 0.05
+#: The shallowest depth limit that means one, m: shallower, waves and the depth sensor's noise trip it at
+#: the surface, and no goal could be deeper than it.
+MAX_DEPTH_MIN_M = 1.0
+
 
 @dataclass(frozen=True)
 class FailsafeParams:
     """The ``[failsafe]`` table. Every key is optional.
 
-    - ``nav_timeout_s``: max age of attitude and depth, s.
-    - ``max_depth_m``: depth limit, m.
+    - ``nav_timeout_s``: max age of attitude and depth, s (>= :data:`NAV_TIMEOUT_MIN_S`).
+    - ``max_depth_m``: depth limit, m (>= :data:`MAX_DEPTH_MIN_M`).
     - ``area_x_min_m``, ``area_x_max_m``, ``area_y_min_m``, ``area_y_max_m``: operating rectangle, NED m.
     - ``max_loop_late_s``: the loop behind its schedule continuously for longer than this aborts, s.
     - ``abort_stern_deg``: nose-up stern deflection of the abort command, deg (> 0; sent as negative stern).
@@ -54,8 +62,14 @@ class FailsafeParams:
     abort_stern_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        require(self.nav_timeout_s > 0.0, f"nav_timeout_s must be > 0, got {self.nav_timeout_s}")
-        require(self.max_depth_m > 0.0, f"max_depth_m must be > 0, got {self.max_depth_m}")
+        require(
+            self.nav_timeout_s >= NAV_TIMEOUT_MIN_S,
+            f"nav_timeout_s must be >= {NAV_TIMEOUT_MIN_S:g} s, got {self.nav_timeout_s:g}",
+        )
+        require(
+            self.max_depth_m >= MAX_DEPTH_MIN_M,
+            f"max_depth_m must be >= {MAX_DEPTH_MIN_M:g} m, got {self.max_depth_m:g}",
+        )
         require(self.area_x_min_m < self.area_x_max_m, "need area_x_min_m < area_x_max_m")
         require(self.area_y_min_m < self.area_y_max_m, "need area_y_min_m < area_y_max_m")
         require(

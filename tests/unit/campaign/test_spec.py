@@ -519,7 +519,11 @@ BAD: list[tuple[str, Any, str]] = [
         [{"mavlink.endpoints": ["udpout:127.0.0.1:1"]}],
         "sweep.onboard[0].mavlink.endpoints: [mavlink] is set by the campaign",
     ),
-    ("sweep/onboard", [{"guidance.speed_mps": -1}], "sweep.onboard[0].guidance: speed_mps must be > 0"),
+    (
+        "sweep/onboard",
+        [{"guidance.speed_mps": -1}],
+        "sweep.onboard[0].guidance: speed_mps must be >= 0.1 m/s",
+    ),
     (
         "sweep/onboard",
         [{"control.improved.Kp5": 1, "control": {"improved": {"Kp5": 2}}}],

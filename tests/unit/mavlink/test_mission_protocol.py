@@ -128,8 +128,12 @@ def test_download_is_stateless_and_answers_legacy_request_in_kind() -> None:
 @pytest.mark.parametrize(
     ("item", "code"),
     [
-        # format only: the limits (yaw range, area, depth, hold time) are the validator's
-        (wp(yaw_deg=361.0), ACCEPTED),
+        # format, and the validator's yaw rule (only the item has the yaw as sent, before the wrap); the
+        # limits (area, depth, hold time) are the validator's
+        (wp(yaw_deg=361.0), mavlink.MAV_MISSION_INVALID_PARAM4),
+        (wp(yaw_deg=-999.0), mavlink.MAV_MISSION_INVALID_PARAM4),
+        (wp(yaw_deg=360.0), ACCEPTED),
+        (wp(yaw_deg=-360.0), ACCEPTED),
         (wp(yaw_deg=math.inf), mavlink.MAV_MISSION_INVALID_PARAM4),
         (wp(x_m=500.1), ACCEPTED),
         (wp(depth_m=-0.1), ACCEPTED),

@@ -495,6 +495,8 @@ class MissionMachine(_VehicleMachine):
             event("mission: item format refused")
             self.up = None
             exp.append(self.ack(who, code, mt))
+            if code == C.MAV_MISSION_INVALID_PARAM4:  # a goal's yaw: the reason names the goal (issue 21)
+                texts.append((who, "mission upload refused: goal "))
             return
         up.got.append(item)
         up.last_rx = up.last_req = self.vehicle.t
@@ -744,7 +746,7 @@ INDEX = {s.name: i for i, s in enumerate(SPECS)}
 #: The parameters the machine sets, with what the model knows of each beyond [min, max]: "open" (min itself
 #: is refused by the configuration's own rule), "count" (a whole number). Their bounds span no other value.
 SETTABLE = {"PD_KP1": "", "PD_KD5": "", "PD_DTAU_S": "", "GDE_ILOS_GAIN": "", "PLN_W_PSI": "",
-            "LIM_FIN_RATE_DPS": "", "LIM_RUDDER_DEG": "open", "MIS_MAX_TRIES": "count",
+            "LIM_FIN_RATE_DPS": "", "LIM_RUDDER_DEG": "", "MIS_MAX_TRIES": "count",
             "FS_ABORT_STN_DEG": ""}  # fmt: skip
 #: PARAM_SET's param_type: the vehicle's own REAL32 mostly, sometimes another (the service ignores it).
 REAL32, INT32, UINT8 = C.MAV_PARAM_TYPE_REAL32, C.MAV_PARAM_TYPE_INT32, C.MAV_PARAM_TYPE_UINT8

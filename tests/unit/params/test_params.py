@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -11,9 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from auv_common.config import ConfigError
+from onboard.app.config import config_from_dict, load_config
 from onboard.core.config import CoreConfig
-from onboard.core.control.actuators import ActuatorCommand, ActuatorLimits, saturate
+from onboard.core.control.actuators import PROPELLER_SPAN_MIN_RPS, ActuatorCommand, ActuatorLimits, saturate
 from onboard.core.control.pd import ControlParams
+from onboard.core.mission.params import ARRIVAL_RADIUS_MIN_M
 from onboard.core.params import (
     PARAM_NAMES,
     BusLimits,
@@ -104,8 +107,8 @@ def test_actuator_limit_ranges_are_within_the_dbc() -> None:
 
 
 def test_bounds_come_from_the_dataclass_rules() -> None:
-    # closed rule (mission arrival radius in (0, 50]) and an integer count (1..20), read by trying values
-    assert (_spec("MIS_ARRIVE_R_M").min, _spec("MIS_ARRIVE_R_M").max) == (0.0, 50.0)
+    # closed rule (mission arrival radius in [0.1, 50]) and an integer count (1..20), read by trying values
+    assert (_spec("MIS_ARRIVE_R_M").min, _spec("MIS_ARRIVE_R_M").max) == (ARRIVAL_RADIUS_MIN_M, 50.0)
     assert (_spec("MIS_MAX_TRIES").min, _spec("MIS_MAX_TRIES").max) == (1.0, 20.0)
     assert _spec("FS_ABORT_STN_DEG").max == 45.0
     assert _spec("PD_KP1").min == -100.0  # no rule in the config: the operator range
@@ -177,10 +180,10 @@ def test_check_against_bus_refuses_configured_limits_beyond_the_dbc() -> None:
 
 def test_the_config_rule_refusal_carries_the_configs_reason() -> None:
     spec = _spec("LIM_RPS_MAX")
-    assert spec.min <= 0.0 <= spec.max  # in range: the dataclass's own cross-value rule refuses it
-    reason = _own_reason(CONFIG.control.limits, propeller_max_rps=0.0)
+    assert spec.min == PROPELLER_SPAN_MIN_RPS  # the cross-value rule: at least this above propeller_min_rps
+    reason = _own_reason(CONFIG.control.limits, propeller_max_rps=0.5)
     with pytest.raises(ParamError) as exc:
-        apply_param(CONFIG, "LIM_RPS_MAX", 0.0, BUS)
+        apply_param(CONFIG, "LIM_RPS_MAX", 0.5, BUS)
     assert reason in exc.value.reason and "LIM_RPS_MAX" in exc.value.reason
     with pytest.raises(ParamError) as exc:
         apply_param(CONFIG, "LIM_RUDDER_DEG", 0.0, BUS)
@@ -188,6 +191,49 @@ def test_the_config_rule_refusal_carries_the_configs_reason() -> None:
     with pytest.raises(ParamError) as exc:
         apply_param(CONFIG, "MIS_ARRIVE_R_M", 60.0, BUS)  # beyond the closed bound: the config's reason
     assert _own_reason(CONFIG.mission, arrival_radius_m=60.0) in exc.value.reason
+
+
+#: float32's smallest normal number: below it (and above 0) a float32 is subnormal.
+FLOAT32_NORMAL_MIN = 2.0**-126
+
+
+@pytest.mark.parametrize("config", [CONFIG, load_config().core], ids=["defaults", "onboard.toml"])
+def test_every_parameter_whose_zero_is_refused_declares_a_meaningful_minimum(config: CoreConfig) -> None:
+    """Issue 21 row 15: a parameter whose 0 is refused has a closed minimum > 0, not subnormal, in force in
+    the configuration (the minimum is accepted, anything below it refused, 1.4e-45 and 1e-10 included)."""
+    zero_refused = []
+    for spec in param_table(config, BUS):
+        try:
+            apply_param(config, spec.name, 0.0, BUS)
+        except ParamError:
+            zero_refused.append(spec.name)
+        else:
+            continue
+        assert spec.min > 0.0 and spec.min >= FLOAT32_NORMAL_MIN, (spec.name, spec.min)
+        assert float32(spec.min) == spec.min or spec.min >= 1e-3, (spec.name, spec.min)
+        assert param_value(apply_param(config, spec.name, spec.min, BUS), spec.name) == spec.min, spec.name
+        for below in (1.4e-45, 1e-10, float32(spec.min) * (1 - 1e-6)):  # below it in float32 too
+            with pytest.raises(ParamError) as exc:
+                apply_param(config, spec.name, below, BUS)
+            assert f"{spec.min:g}" in exc.value.reason or "whole number" in exc.value.reason, exc.value.reason
+    assert {"LIM_RUDDER_DEG", "LIM_RPS_MAX", "FS_NAV_TMO_S"} <= set(zero_refused)
+    # every bound in the table is closed: the maximum is accepted too
+    for spec in param_table(config, BUS):
+        assert param_value(apply_param(config, spec.name, spec.max, BUS), spec.name) == spec.max, spec.name
+
+
+def test_a_configuration_value_below_a_declared_minimum_stops_start_up(tmp_path: Path) -> None:
+    """The file and the parameter agree: the minimum lives beside the configuration's rule."""
+    for table, key, value, words in (
+        ("control.limits", "rudder_limit_deg", 1e-10, "rudder_limit_deg must be in [1, 45]"),
+        ("control.limits", "propeller_max_rps", 0.5, "propeller_max_rps must be >= 1"),
+        ("failsafe", "nav_timeout_s", 1.4e-45, "nav_timeout_s must be >= 0.05"),
+        ("planner", "turning_radius_m", 1e-10, "turning_radius_m must be >= 0.5"),
+    ):
+        section, _, sub = table.partition(".")
+        data: dict[str, object] = {section: {sub: {key: value}} if sub else {key: value}}
+        with pytest.raises(ConfigError, match=re.escape(words)):
+            config_from_dict(data, "onboard.toml")
 
 
 @pytest.mark.parametrize(
