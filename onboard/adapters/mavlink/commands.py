@@ -10,6 +10,12 @@ is answered TEMPORARILY_REJECTED "the control loop is not running"; a taken one 
 COMMAND_LONG (same sender and command) while the first is still pending is not queued again: the first one's
 ACK answers it. If the mapping code raises, the command is ACKed FAILED (logged).
 
+Per link: the COMMAND_ACK and the refusal's STATUSTEXT go to the link the command came over only (another
+station, even with the same ids, hears neither); what an accepted command changes reaches every station
+through the telemetry (HEARTBEAT, MISSION_CURRENT) and the core's notes. SET_MESSAGE_INTERVAL sets the
+asker's link's rate (:meth:`~onboard.adapters.mavlink.telemetry.Telemetry.set_interval`), REQUEST_MESSAGE
+and GET_HOME_POSITION answer the asker's link.
+
 Mapping (seq = MAVLink mission seq; a stored home item shifts seq = goal index + 1):
 
 - ARM_DISARM p1 1 -> :class:`Arm`, 0 -> :class:`Disarm` (forced when p2 = 21196), else DENIED.
@@ -320,7 +326,7 @@ class CommandService:
         self.transport.reply(ack, sender)
         self.acks += 1
         if verdict.outcome is not Outcome.ACCEPTED and verdict.outcome is not Outcome.UNSUPPORTED:
-            self.transport.statustext(Severity.WARNING, verdict.reason)
+            self.transport.statustext(Severity.WARNING, verdict.reason, to=sender)  # the asker's answer
         log.info(
             "command %d from %d/%d: %s (%s)", cmd, sender[0], sender[1], verdict.outcome.value, verdict.reason
         )
@@ -328,6 +334,7 @@ class CommandService:
     def _link_only(self, cmd: int, p: list[float], sender: Sender) -> None:
         """The commands that do not touch the vehicle: answered here, then their message is sent."""
         tel = self.telemetry
+        link = sender.link if isinstance(sender, Sender) else None  # None: unknown, every link
         send: int | None = None
         verdict: Verdict
         try:
@@ -338,7 +345,7 @@ class CommandService:
                 else:
                     verdict = core.denied(f"message {msg_id} cannot be requested")
             elif cmd == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-                verdict = tel.set_interval(int(_num(p, 0)), _num(p, 1))
+                verdict = tel.set_interval(int(_num(p, 0)), _num(p, 1), link)
             elif cmd == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
                 verdict, send = core.accepted("sent"), mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
             else:  # MAV_CMD_GET_HOME_POSITION: deprecated, still sent by MAVProxy
@@ -347,14 +354,14 @@ class CommandService:
             verdict = r.verdict
         self._ack(cmd, sender, verdict)
         if send is not None:
-            tel.send_message(send)
+            tel.send_message(send, link)
 
     def _set_current_message(self, seq: int, sender: Sender) -> None:
         """MISSION_SET_CURRENT: no ACK exists; the answer is MISSION_CURRENT, a refusal a STATUSTEXT."""
         offset, n = self.seqs.shape()
         index = goal_of_seq(seq, offset, n)
         if index is None:
-            self.transport.statustext(Severity.WARNING, _no_item(seq, offset, n).reason)
+            self.transport.statustext(Severity.WARNING, _no_item(seq, offset, n).reason, to=sender)
             return
         command = core.SetCurrent(index, source=f"MAVLink {sender[0]}/{sender[1]}")
 
@@ -362,6 +369,6 @@ class CommandService:
             if v.accepted:
                 self.telemetry.send_mission_current(index)
             else:
-                self.transport.statustext(Severity.WARNING, v.reason)
+                self.transport.statustext(Severity.WARNING, v.reason, to=sender)
 
         self.requests.submit(command, answered)

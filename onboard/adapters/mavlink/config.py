@@ -77,6 +77,16 @@ class MavlinkConfig:
     signing_link_id: int = 0
     rx_peer_per_s: int = 500  # datagrams (TCP: messages) parsed per second per known peer; the rest shed
     rx_strangers_per_s: int = 200  # the same, shared by every address not (yet) a known peer
+    #: per link: a SET_MESSAGE_INTERVAL asks for at most this rate (faster requests are clamped to it)
+    max_stream_rate_hz: float = 50.0
+    #: per link: messages sent per second to one peer (its output budget; strangers share one); the rest
+    #: is dropped (counted as ``tx_shed``), so what one peer asks for never costs another its telemetry
+    tx_peer_per_s: int = 2000
+    #: a TCP connection that sends no MAVLink message for this long is closed
+    tcp_idle_timeout_s: float = 20.0
+    #: when the connection table is full, the longest-silent connection gives way to a new one if it has
+    #: been silent this long (a live ground station sends its HEARTBEAT every second, so it is kept)
+    tcp_evict_idle_s: float = 3.0
 
     def __post_init__(self) -> None:
         require(len(self.endpoints) >= 1 or not self.enabled, "endpoints: at least one when enabled")
@@ -98,6 +108,23 @@ class MavlinkConfig:
         ):
             v = getattr(self, name)
             require(0.0 <= v <= 100.0, f"{name} must be within 0..100 Hz, got {v}")
+            require(
+                v <= self.max_stream_rate_hz,
+                f"{name} ({v} Hz) must not exceed max_stream_rate_hz ({self.max_stream_rate_hz} Hz)",
+            )
+        require(
+            1.0 <= self.max_stream_rate_hz <= 100.0,
+            f"max_stream_rate_hz must be within 1..100 Hz, got {self.max_stream_rate_hz}",
+        )
+        require(10 <= self.tx_peer_per_s <= 1_000_000, f"tx_peer_per_s out of range: {self.tx_peer_per_s}")
+        require(
+            1.0 <= self.tcp_idle_timeout_s <= 3600.0,
+            f"tcp_idle_timeout_s must be 1..3600, got {self.tcp_idle_timeout_s}",
+        )
+        require(
+            0.5 <= self.tcp_evict_idle_s <= self.tcp_idle_timeout_s,
+            f"tcp_evict_idle_s must be within 0.5..tcp_idle_timeout_s, got {self.tcp_evict_idle_s}",
+        )
         require(
             0.5 <= self.gcs_timeout_s <= 3600.0, f"gcs_timeout_s must be 0.5..3600, got {self.gcs_timeout_s}"
         )

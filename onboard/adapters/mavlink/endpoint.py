@@ -198,6 +198,8 @@ class VehicleLink:
         d.update({f"mission_{k}": v for k, v in self.missions.server.stats.__dict__.items()})
         d["tx_packets"] = self.transport.tx_packets
         d["tx_errors"] = self.transport.tx_errors
+        d["tx_shed"] = self.transport.tx_shed  # beyond a peer's output budget, dropped for it alone
+        d["tcp_closed_idle"] = self.transport.tcp_closed_idle
         d["command_acks"] = self.commands.acks
         d["request_timeouts"] = self.requests.timeouts
         d["notes_dropped"] = self._notes_dropped

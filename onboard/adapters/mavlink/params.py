@@ -10,6 +10,10 @@ holds only the values in force as the core last reported them. A PARAM_SET is a
   reason;
 - an unknown name has no PARAM_VALUE to answer with: a STATUSTEXT "unknown parameter NAME".
 
+Per link: PARAM_REQUEST_LIST / PARAM_REQUEST_READ and a refused PARAM_SET (its STATUSTEXT and the
+PARAM_VALUE in force) and "unknown parameter NAME" are answered to the asker's link only; an accepted
+PARAM_SET's PARAM_VALUE (a change) goes to every link, so every station's cached list stays true.
+
 At start the service loads the persisted edits. The vehicle programs apply them to the core first and give
 the values in force (``values``; :func:`onboard.app.runtime.resolve_boot`), so the first PARAM_VALUE is
 true. Without ``values`` (a link alone, tests) each persisted edit is handed to the core as a ``SetParam``
@@ -125,50 +129,57 @@ class ParamService:
         if not addressed_to(msg, self.config.system_id, self.config.component_id):
             return
         kind = msg.get_type()
+        # PARAM_REQUEST_LIST / READ are answered to the asker's link only (within its output budget): a
+        # station asking for the list again and again costs no other station anything
         if kind == "PARAM_REQUEST_LIST":
             for spec in self.specs:
-                self.transport.send(self._param_value(spec.name))
+                self.transport.reply(self._param_value(spec.name), sender)
         elif kind == "PARAM_REQUEST_READ":
             if msg.param_index >= 0:
                 if msg.param_index < len(self.specs):
-                    self.transport.send(self._param_value(self.specs[msg.param_index].name))
+                    self.transport.reply(self._param_value(self.specs[msg.param_index].name), sender)
                 return
             name = param_name(msg.param_id)
             if name in self._index:
-                self.transport.send(self._param_value(name))
+                self.transport.reply(self._param_value(name), sender)
         elif kind == "PARAM_SET":
             self._set(param_name(msg.param_id), float(msg.param_value), sender)
 
     def _set(self, name: str, value: float, sender: Sender) -> None:
         if name not in self._index:
-            self.transport.statustext(Severity.WARNING, f"unknown parameter {name}")
+            self.transport.statustext(Severity.WARNING, f"unknown parameter {name}", to=sender)
             return
         if not math.isfinite(value):
-            self._refused(name, core.denied(f"{name}: the value is not a number"))
+            self._refused(name, core.denied(f"{name}: the value is not a number"), sender)
             return
         key = ("param", name, float32(value))
         if self.requests.pending(key):
             return  # a resend: the first one's PARAM_VALUE answers it
         self.requests.submit(
             core.SetParam(name, value, source=f"MAVLink {sender[0]}/{sender[1]}"),
-            lambda v: self._answered(name, v),
+            lambda v: self._answered(name, v, sender),
             key=key,
         )
 
-    def _answered(self, name: str, verdict: Verdict) -> None:
+    def _answered(self, name: str, verdict: Verdict, sender: Sender | None = None) -> None:
         if not verdict.accepted:
-            self._refused(name, verdict)
+            self._refused(name, verdict, sender)
             return
         if math.isfinite(verdict.value):
             self._values[name] = verdict.value
         self._persist(name)
         self.transport.send(self._param_value(name))
 
-    def _refused(self, name: str, verdict: Verdict) -> None:
+    def _refused(self, name: str, verdict: Verdict, to: Sender | None = None) -> None:
+        """A refused PARAM_SET: the reason and the value in force, to the asker's link only (``to``; None:
+        every link), since nothing changed that another station must hear."""
         if math.isfinite(verdict.value):
             self._values[name] = verdict.value
-        self.transport.statustext(Severity.WARNING, verdict.reason)
-        self.transport.send(self._param_value(name))  # the value in force
+        self.transport.statustext(Severity.WARNING, verdict.reason, to=to)
+        if to is None:
+            self.transport.send(self._param_value(name))  # the value in force
+        else:
+            self.transport.reply(self._param_value(name), to)
 
     def _persist(self, name: str) -> None:
         spec = self.specs[self._index[name]]

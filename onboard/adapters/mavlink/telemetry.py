@@ -12,6 +12,13 @@ excludes home), ``mission_state`` from :data:`STATE_TABLE`. MISSION_ITEM_REACHED
 stern_starboard_rad, propeller_rps]. GLOBAL_POSITION_INT is the local position projected about the
 configured origin (alt = origin altitude - depth). EXTENDED_SYS_STATE (landed state undefined) is off unless
 a ground station sets its interval (MAVSDK does).
+
+Stream rates are per link, as in ArduPilot: every stream starts at its configured rate on every link, and a
+SET_MESSAGE_INTERVAL changes it for the link it came over only (another station, with the same ids or not,
+keeps its rates), at most ``[mavlink] max_stream_rate_hz`` (a faster request is clamped; interval 0: back to
+the configured rate, -1: off for that link). A link's own rates are forgotten when it goes (a UDP peer
+silent for 30 s, a closed TCP connection). REQUEST_MESSAGE is answered to the asker's link. What changes for
+everyone (a state or armed change's HEARTBEAT and MISSION_CURRENT, MISSION_ITEM_REACHED) goes to every link.
 """
 
 from __future__ import annotations
@@ -19,8 +26,8 @@ from __future__ import annotations
 import collections
 import math
 import threading
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Collection
+from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -28,6 +35,7 @@ from onboard.adapters.mavlink import modes
 from onboard.adapters.mavlink.api import VehicleSnapshot
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_protocol import MissionLimits, local_to_global, seq_of_goal
+from onboard.adapters.mavlink.peers import Link
 from onboard.adapters.mavlink.transport import Transport
 from onboard.core import commands as core
 from onboard.core.commands import Verdict
@@ -91,10 +99,24 @@ def _i(v: float, lo: int, hi: int) -> int:
 
 
 @dataclass
-class _Stream:
+class _Rate:
+    """One link's own rate of a stream (it set the interval)."""
+
     period_s: float
+    next_s: float = 0.0
+
+
+@dataclass
+class _Stream:
+    period_s: float  # for every link without a rate of its own
     default_s: float
     next_s: float = 0.0
+    links: dict[Link, _Rate] = field(default_factory=dict)  # the links that set an interval of their own
+
+
+def _advance(next_s: float, period_s: float, now: float) -> float:
+    """The next deadline of a stream due at ``now`` (never a catch-up burst after a late poll)."""
+    return max(next_s + period_s, now) if next_s else now
 
 
 class Telemetry:
@@ -192,51 +214,90 @@ class Telemetry:
         if changed:  # after the reached goals: a station sees the goal, then the state it led to
             self.send_message(mavlink.MAVLINK_MSG_ID_HEARTBEAT)
             self.send_mission_current()
+        self._forget_gone_links()
         for msg_id, stream in self._streams.items():
             if now >= stream.next_s:
-                stream.next_s = max(stream.next_s + stream.period_s, now) if stream.next_s else now
+                stream.next_s = _advance(stream.next_s, stream.period_s, now)
                 if stream.period_s < math.inf:
-                    self.send_message(msg_id)
+                    self.send_message(msg_id, exclude=stream.links.keys())
+            for link, own in stream.links.items():
+                if now >= own.next_s:
+                    own.next_s = _advance(own.next_s, own.period_s, now)
+                    if own.period_s < math.inf:
+                        self.send_message(msg_id, link)
+
+    def _forget_gone_links(self) -> None:
+        """Drop the own rates of links that are no peer any more (the table stays as small as the peers')."""
+        if not any(st.links for st in self._streams.values()):
+            return
+        live = self.transport.links()
+        for st in self._streams.values():
+            for link in [k for k in st.links if k not in live]:
+                del st.links[link]
 
     def next_deadline(self) -> float:
         with self._lock:
             if self._reached or self._changed:
                 return self._clock()
-        return min(s.next_s for s in self._streams.values())
+        return min(min([s.next_s, *(r.next_s for r in s.links.values())]) for s in self._streams.values())
 
     def requestable(self) -> set[int]:
         return set(self._streams) | {mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
 
-    def set_interval(self, msg_id: int, interval_us: float) -> Verdict:
-        """SET_MESSAGE_INTERVAL: < 0 off, 0 the default rate, else the interval (at most 100 Hz)."""
+    def set_interval(self, msg_id: int, interval_us: float, link: Link | None = None) -> Verdict:
+        """SET_MESSAGE_INTERVAL for ``link`` (the asker's; None, a sender not known: every link's default):
+        < 0 off, 0 the configured rate, else the interval, at most ``max_stream_rate_hz``."""
         stream = self._streams.get(msg_id)
         if stream is None or msg_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
             return core.denied(f"the interval of message {msg_id} cannot be set")
+        max_hz = self.config.max_stream_rate_hz
         if interval_us < 0:
-            stream.period_s = math.inf
+            period = math.inf
         elif interval_us == 0:
-            stream.period_s = stream.default_s
+            period = stream.default_s
         else:
-            stream.period_s = max(interval_us * 1e-6, 0.01)
-        stream.next_s = self._clock()
+            period = max(interval_us * 1e-6, 1.0 / max_hz)
+        now = self._clock()
+        if link is None:
+            stream.period_s, stream.next_s = period, now
+        elif interval_us == 0:
+            stream.links.pop(link, None)
+        else:
+            stream.links[link] = _Rate(period, now)
+        if 0 < interval_us * 1e-6 < 1.0 / max_hz:
+            return core.accepted(f"interval set to {period * 1e6:.0f} us (at most {max_hz:g} Hz)")
         return core.accepted("interval set")
 
-    def send_mission_current(self, goal_index: int | None = None) -> None:
-        """MISSION_CURRENT now (``goal_index`` given: the goal just selected, before the loop reports it)."""
+    def send_mission_current(
+        self, goal_index: int | None = None, link: Link | None = None, exclude: Collection[Link] = ()
+    ) -> None:
+        """MISSION_CURRENT now (``goal_index`` given: the goal just selected, before the loop reports it), to
+        every link but ``exclude``, or to ``link`` only."""
         s = self.snapshot()
         offset, n = self._shape()  # total excludes a home item (spec)
         index = s.current_goal if goal_index is None else goal_index
         row = STATE_TABLE[s.state]
-        self.transport.send(
+        self._send(
             mavlink.MAVLink_mission_current_message(
                 _i(seq_of_goal(index, offset), 0, 65535),
                 n,
                 row.mission_state if n else mavlink.MISSION_STATE_NO_MISSION,
                 1 if row.in_mission else 0,
-            )
+            ),
+            link,
+            exclude,
         )
 
-    def send_message(self, msg_id: int) -> None:
+    def _send(self, m: mavlink.MAVLink_message, link: Link | None, exclude: Collection[Link]) -> None:
+        if link is not None:
+            self.transport.send(m, link)
+        elif exclude:
+            self.transport.send(m, exclude=exclude)
+        else:
+            self.transport.send(m)
+
+    def send_message(self, msg_id: int, link: Link | None = None, exclude: Collection[Link] = ()) -> None:
+        """Message ``msg_id`` now, to every link but ``exclude``, or to ``link`` only."""
         s = self.snapshot()
         boot_ms = _i(s.t_s * 1000.0, 0, 2**32 - 1)
         usec = _i(s.t_s * 1e6, 0, 2**63 - 1)
@@ -305,7 +366,7 @@ class Telemetry:
                 _i(s.overruns, 0, 65535), 0, 0, 0,
             )  # fmt: skip
         elif msg_id == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
-            self.send_mission_current()
+            self.send_mission_current(link=link, exclude=exclude)
             return
         elif msg_id == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
             m = mavlink.MAVLink_home_position_message(
@@ -340,4 +401,4 @@ class Telemetry:
             )
         else:
             return
-        self.transport.send(m)
+        self._send(m, link, exclude)

@@ -4,10 +4,24 @@
 every UDP datagram on its own (:func:`onboard.adapters.mavlink.wire.decode_datagram`) with the signature
 checked before the timestamp, learns the peers that speak to it (at most :data:`MAX_PEERS` per socket,
 first come, kept while they speak, forgotten after :data:`PEER_EXPIRY_S`) and sends every message to every
-peer, or a reply to the one link its request came over
-(:class:`~onboard.adapters.mavlink.peers.Sender` carries it: a transfer belongs to one peer, not to a pair
-of ids two ground stations may share). :meth:`Transport.wake` (any thread) interrupts
+peer (but the links given as ``exclude``: those with a stream rate of their own), or a reply to the one link
+its request came over (:class:`~onboard.adapters.mavlink.peers.Sender` carries it: a transfer belongs to one
+peer, not to a pair of ids two ground stations may share). :meth:`Transport.wake` (any thread) interrupts
 :meth:`Transport.wait`.
+
+Per link (a learned UDP address, the ``udpout`` target, one TCP connection; see
+:mod:`~onboard.adapters.mavlink.peers`): its receive share (below), its output budget and, in
+:mod:`~onboard.adapters.mavlink.telemetry`, its stream rates.
+
+Output budgets (what one peer asks for never costs another its telemetry): every known peer has its own
+token bucket of ``tx_peer_per_s`` messages, and the replies to addresses that are no peer share one; a
+message to a peer beyond its budget is dropped for that peer alone (counted as ``tx_shed``; a reply to one
+link is dropped before it is encoded), the others still get it.
+
+TCP connections: a connection that sends no MAVLink message for ``tcp_idle_timeout_s`` is closed, and when
+:data:`MAX_PEERS` connections are open, the one silent longest gives way to a new one if it has been silent
+for ``tcp_evict_idle_s`` (a live ground station speaks every second, so silent connections never lock a
+new station out, and a flood of connections never pushes a live one out).
 
 Receive shares (floods starve no one): every known peer (a learned address, the ``udpout`` target, each TCP
 connection, at most :data:`MAX_PEERS` of them) has its own token bucket of ``rx_peer_per_s`` and all other
@@ -30,7 +44,7 @@ import itertools
 import logging
 import selectors
 import socket
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -97,6 +111,9 @@ class _Socket:
     peers: dict[Addr, float] = field(default_factory=dict)  # learned address -> last rx (monotonic)
     shares: dict[Addr, TokenBucket] = field(default_factory=dict)  # learned address -> its receive share
     share: TokenBucket | None = None  # the share of the fixed address (udpout) or of the TCP connection
+    budgets: dict[Addr, TokenBucket] = field(default_factory=dict)  # learned address -> its output budget
+    budget: TokenBucket | None = None  # the output budget of the fixed address or of the TCP connection
+    last_rx_s: float = 0.0  # a TCP connection: when it last sent a MAVLink message (or was accepted)
     stream_parser: Any = None  # for TCP connections
     server: bool = False
     secure: bool = False  # one of [mavlink] secure_endpoints (a TCP connection: its server's)
@@ -135,6 +152,8 @@ class Transport:
         self.rx = RxStats()
         self.tx_packets = 0
         self.tx_errors = 0
+        self.tx_shed = 0  # messages not sent to a peer: beyond its output budget
+        self.tcp_closed_idle = 0  # TCP connections closed (or evicted) because they said nothing
         self._mav = mavlink.MAVLink(_Fanout(self), config.system_id, config.component_id)
         self._verifier: SigningVerifier | None = None
         self._on_signing_advance = on_signing_advance
@@ -144,8 +163,10 @@ class Transport:
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
         self._strangers = self._new_share(config.rx_strangers_per_s)
+        self._strangers_tx = self._new_share(config.tx_peer_per_s)
         self._text_id = 0
         self._route: Link | None = None  # set while send(msg, link) encodes: the one destination
+        self._exclude: Collection[Link] = ()  # set while send(msg, exclude=...) encodes: links left out
 
     # ---- lifecycle -----------------------------------------------------------------------------
     def open(self) -> None:
@@ -170,7 +191,7 @@ class Transport:
                     sock.bind(("0.0.0.0", 0))
                     # by address, as recvfrom gives it back (a name would never match, and be learned again)
                     fixed = (socket.gethostbyname(host), port)
-                    s = _Socket(kind, sock, fixed=fixed, share=self._peer_share())
+                    s = _Socket(kind, sock, fixed=fixed, share=self._peer_share(), budget=self._peer_budget())
                 sock.setblocking(False)
             s.secure = spec in self.config.secure_endpoints
             self._sockets.append(s)
@@ -246,6 +267,7 @@ class Transport:
             ready = sel.select(timeout_s)
         except (OSError, ValueError):
             return False
+        self._close_idle_tcp(self._clock())
         for key, _ in ready:
             if key.data is None:
                 self._drain_wake()
@@ -270,6 +292,21 @@ class Transport:
     def _peer_share(self) -> TokenBucket:
         return self._new_share(self.config.rx_peer_per_s)
 
+    def _peer_budget(self) -> TokenBucket:
+        return self._new_share(self.config.tx_peer_per_s)
+
+    def links(self) -> set[Link]:
+        """The links of the known peers now (learned UDP addresses, ``udpout`` targets, TCP connections)."""
+        out: set[Link] = set()
+        for s in self._sockets:
+            if s.kind == "tcpconn":
+                out.add((s.serial, None))
+            elif not s.server:
+                out.update((s.serial, addr) for addr in s.peers)
+                if s.fixed is not None:
+                    out.add((s.serial, s.fixed))
+        return out
+
     def _share_of(self, s: _Socket, addr: Addr) -> tuple[TokenBucket, bool]:
         """The receive share a datagram from ``addr`` spends, and whether it is a known peer's."""
         if addr == s.fixed and s.share is not None:
@@ -291,14 +328,23 @@ class Transport:
                 conn, _addr = s.sock.accept()
             except OSError:
                 return
-            if sum(c.kind == "tcpconn" for c in self._sockets) >= MAX_PEERS:
-                self.rx.peers_refused += 1  # as many connections as UDP peers: no more
+            now = self._clock()
+            if not self._room_for_connection(now):
+                self.rx.peers_refused += 1  # as many live connections as UDP peers: no more
                 conn.close()
                 return
             conn.setblocking(False)
             parser = mavlink.MAVLink(None)
             parser.robust_parsing = True
-            c = _Socket("tcpconn", conn, stream_parser=parser, share=self._peer_share(), secure=s.secure)
+            c = _Socket(
+                "tcpconn",
+                conn,
+                stream_parser=parser,
+                share=self._peer_share(),
+                budget=self._peer_budget(),
+                secure=s.secure,
+                last_rx_s=now,
+            )
             self._sockets.append(c)
             assert self._selector is not None
             self._selector.register(conn, selectors.EVENT_READ, c)
@@ -337,10 +383,7 @@ class Transport:
         except OSError:
             data = b""
         if not data:
-            assert self._selector is not None
-            self._selector.unregister(s.sock)
-            s.sock.close()
-            self._sockets.remove(s)
+            self._close_tcp(s)
             return
         now = self._clock()
         msgs = s.stream_parser.parse_buffer(data) or []
@@ -356,7 +399,40 @@ class Transport:
             if not accept_frame(frame, msg, self.rx, self._verifier, s.secure):
                 continue
             self.rx.packets += 1
+            s.last_rx_s = now
             self._dispatch(msg, now, (s.serial, None))
+
+    def _close_tcp(self, s: _Socket) -> None:
+        if self._selector is not None:
+            self._selector.unregister(s.sock)
+        s.sock.close()
+        self._sockets.remove(s)
+
+    def _close_idle_tcp(self, now: float) -> None:
+        """Close the TCP connections that sent no MAVLink message for ``tcp_idle_timeout_s``."""
+        for c in [c for c in self._sockets if c.kind == "tcpconn"]:
+            if now - c.last_rx_s > self.config.tcp_idle_timeout_s:
+                log.info("TCP connection %d closed: silent for %.0f s", c.serial, now - c.last_rx_s)
+                self.tcp_closed_idle += 1
+                self._close_tcp(c)
+
+    def _room_for_connection(self, now: float) -> bool:
+        """Whether a new TCP connection may be taken: fewer than :data:`MAX_PEERS` are open, or the one
+        silent longest has been silent for ``tcp_evict_idle_s`` and is closed to make room."""
+        conns = [c for c in self._sockets if c.kind == "tcpconn"]
+        if len(conns) < MAX_PEERS:
+            return True
+        idlest = min(conns, key=lambda c: c.last_rx_s)
+        if now - idlest.last_rx_s < self.config.tcp_evict_idle_s:
+            return False
+        log.info(
+            "TCP connection %d gives way to a new one: silent for %.1f s",
+            idlest.serial,
+            now - idlest.last_rx_s,
+        )
+        self.tcp_closed_idle += 1
+        self._close_tcp(idlest)
+        return True
 
     def _learn(self, s: _Socket, addr: Addr, now: float) -> None:
         """Remember ``addr`` as a peer (first come, kept while it speaks: a full table of live peers is
@@ -370,6 +446,7 @@ class Transport:
                 self.rx.peers_refused += 1
                 return
             s.shares[addr] = self._peer_share()
+            s.budgets[addr] = self._peer_budget()
         s.peers[addr] = now
 
     @staticmethod
@@ -378,52 +455,83 @@ class Transport:
             if now - last > PEER_EXPIRY_S:
                 del s.peers[addr]
                 s.shares.pop(addr, None)
+                s.budgets.pop(addr, None)
 
     # ---- send ----------------------------------------------------------------------------------
+    def _spend(self, budget: TokenBucket | None, now: float) -> bool:
+        """Take one message from a peer's output budget; False (counted) when it is spent."""
+        if budget is None or budget.take(now):
+            return True
+        self.tx_shed += 1
+        return False
+
+    def _budget_of(self, link: Link) -> TokenBucket:
+        """The output budget of ``link``: its peer's own, or the one the addresses that are no peer share."""
+        serial, addr = link
+        for s in self._sockets:
+            if s.serial != serial:
+                continue
+            if s.kind == "tcpconn" or (addr is not None and addr == s.fixed):
+                return s.budget or self._strangers_tx
+            return s.budgets.get(addr, self._strangers_tx) if addr is not None else self._strangers_tx
+        return self._strangers_tx
+
     def _send_raw(self, buf: bytes) -> None:
         if self._route is not None:
             self._send_one(buf, self._route)
             return
         now = self._clock()
+        exclude = self._exclude
         for s in list(self._sockets):
             if s.server:
                 continue
-            try:
-                if s.kind == "tcpconn":
-                    s.sock.send(buf)
-                    continue
-                self._forget_expired(s, now)
-                for addr in s.peers:
-                    s.sock.sendto(buf, addr)
-                if s.fixed is not None:
-                    s.sock.sendto(buf, s.fixed)
-            except OSError:
-                self.tx_errors += 1
+            if s.kind == "tcpconn":
+                if (s.serial, None) not in exclude and self._spend(s.budget, now):
+                    self._put(s, buf, None)
+                continue
+            self._forget_expired(s, now)
+            for addr in s.peers:
+                if (s.serial, addr) not in exclude and self._spend(s.budgets.get(addr), now):
+                    self._put(s, buf, addr)
+            if s.fixed is not None and (s.serial, s.fixed) not in exclude and self._spend(s.budget, now):
+                self._put(s, buf, s.fixed)
         self.tx_packets += 1
+
+    def _put(self, s: _Socket, buf: bytes, addr: Addr | None) -> None:
+        """One packet to one destination (an error there is counted and costs no other peer its copy)."""
+        try:
+            if s.kind == "tcpconn":
+                s.sock.send(buf)
+            elif addr is not None:
+                s.sock.sendto(buf, addr)
+        except OSError:
+            self.tx_errors += 1
 
     def _send_one(self, buf: bytes, link: Link) -> None:
         serial, addr = link
         for s in self._sockets:
             if s.serial != serial:
                 continue
-            try:
-                if s.kind == "tcpconn":
-                    s.sock.send(buf)
-                elif addr is not None:
-                    s.sock.sendto(buf, addr)
-            except OSError:
-                self.tx_errors += 1
+            self._put(s, buf, addr)
             self.tx_packets += 1
             return
         self.tx_errors += 1  # the link is gone (a closed TCP connection): nobody to answer
 
-    def send(self, msg: mavlink.MAVLink_message, link: Link | None = None) -> None:
-        """Send one message to every peer, or with ``link`` to that one only (I/O thread only)."""
+    def send(
+        self, msg: mavlink.MAVLink_message, link: Link | None = None, exclude: Collection[Link] = ()
+    ) -> None:
+        """Send one message to every peer but those of ``exclude``, or with ``link`` to that one only (I/O
+        thread only). Each destination spends one message of its output budget; a reply to one link
+        beyond its budget is dropped before it is encoded."""
+        if link is not None and not self._spend(self._budget_of(link), self._clock()):
+            return
         self._route = link
+        self._exclude = exclude
         try:
             self._mav.send(msg)
         finally:
             self._route = None
+            self._exclude = ()
 
     def reply(self, msg: mavlink.MAVLink_message, to: Sender) -> None:
         """Send ``msg`` to the link ``to`` came over (to every peer when it is not known)."""

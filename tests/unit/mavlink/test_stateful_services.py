@@ -809,12 +809,16 @@ class ParamMachine(_VehicleMachine):
     def pv(self, name: str) -> tuple[str, float, int, int, int]:
         return (name, f32(self.values[name]), C.MAV_PARAM_TYPE_REAL32, len(SPECS), INDEX[name])
 
-    def check_out(self, expected: list[tuple[str, float, int, int, int]], texts: list[str]) -> None:
+    def check_out(
+        self, expected: list[tuple[tuple[str, float, int, int, int], Any]], texts: list[str]
+    ) -> None:
+        """``expected``: (PARAM_VALUE, link: None to every peer) in order; every STATUSTEXT is an answer, to
+        the asker's link only (issue 21: a refusal or a list costs no other station anything)."""
         out = self.vehicle.take()
-        assert all(link is None for _, link in out)  # the parameters are every peer's news
-        got = [param_msg(m) for m, _ in out if m.get_type() == "PARAM_VALUE"]
+        got = [(param_msg(m), link) for m, link in out if m.get_type() == "PARAM_VALUE"]
         assert [m.get_type() for m, _ in out if m.get_type() not in ("PARAM_VALUE", "STATUSTEXT")] == []
         assert got == expected
+        assert all(link == self.gcs.link for link, _ in texts_of(out))
         sent = [text for _, text in texts_of(out)]
         assert len(sent) == len(texts), (sent, texts)
         for text, words in zip(sent, texts, strict=True):
@@ -843,14 +847,14 @@ class ParamMachine(_VehicleMachine):
     def param_set(self, name: str, ptype: int, data: st.DataObject) -> None:
         value = f32(data.draw(values_for(name), label="value"))
         note(f"PARAM_SET {name!r} = {value!r} (type {ptype})")
-        exp: list[tuple[str, float, int, int, int]] = []
+        exp: list[tuple[tuple[str, float, int, int, int], Any]] = []
         texts: list[str] = []
         if name not in SPEC:
             texts.append(f"unknown parameter {name}")
         elif not math.isfinite(value):
             event("param: not a number")
             texts.append("the value is not a number")
-            exp.append(self.pv(name))
+            exp.append((self.pv(name), self.gcs.link))
         elif any(n == name and f32(v) == value for n, v, _ in self.pending):
             event("param: resend while pending")
         else:
@@ -874,14 +878,14 @@ class ParamMachine(_VehicleMachine):
     def serve(self) -> None:
         """One loop tick: the core judges every request; the link answers at its next poll."""
         assert self.ap is not None
-        exp: list[tuple[str, float, int, int, int]] = []
+        exp: list[tuple[tuple[str, float, int, int, int], Any]] = []
         texts: list[str] = []
         for name, value, _ in self.pending:
             ok, self.values[name] = self.judged(name, value)
             event(f"param: set {'accepted' if ok else 'refused by the core'}")
             if not ok:
                 texts.append(name)  # the core's reason names the parameter
-            exp.append(self.pv(name))
+            exp.append((self.pv(name), None if ok else self.gcs.link))  # a change: to every peer
         self.pending = []
         bridge.before_tick(self.ap, self.vehicle.link)
         self.vehicle.poll()
@@ -891,7 +895,7 @@ class ParamMachine(_VehicleMachine):
     def stall(self, dt: float) -> None:
         """The loop does not run: a request not taken in time is refused with the value in force."""
         now = self.vehicle.t + dt
-        exp = [self.pv(n) for n, _, deadline in self.pending if now >= deadline]
+        exp = [(self.pv(n), self.gcs.link) for n, _, deadline in self.pending if now >= deadline]
         if exp:
             event("param: loop not running")
         self.pending = [p for p in self.pending if now < p[2]]
@@ -901,18 +905,18 @@ class ParamMachine(_VehicleMachine):
     @rule(name=st.one_of(st.sampled_from(sorted(SPEC)), st.sampled_from(UNKNOWN)))
     def read_by_name(self, name: str) -> None:
         self.vehicle.rx(C.MAVLink_param_request_read_message(1, 1, name.encode(), -1), self.gcs)
-        self.check_out([self.pv(name)] if name in SPEC else [], [])
+        self.check_out([(self.pv(name), self.gcs.link)] if name in SPEC else [], [])
 
     @rule(index=st.integers(0, len(SPECS) + 2), name=st.sampled_from(["", "PD_KP1", "NOPE"]))
     def read_by_index(self, index: int, name: str) -> None:
         """By index (the name is ignored when the index is given); beyond the table: no answer."""
         self.vehicle.rx(C.MAVLink_param_request_read_message(1, 1, name.encode(), index), self.gcs)
-        self.check_out([self.pv(SPECS[index].name)] if index < len(SPECS) else [], [])
+        self.check_out([(self.pv(SPECS[index].name), self.gcs.link)] if index < len(SPECS) else [], [])
 
     @rule()
     def read_all(self) -> None:
         self.vehicle.rx(C.MAVLink_param_request_list_message(1, 1), self.gcs)
-        self.check_out([self.pv(s.name) for s in SPECS], [])
+        self.check_out([(self.pv(s.name), self.gcs.link) for s in SPECS], [])
 
     @rule()
     def reboot(self) -> None:
