@@ -548,6 +548,19 @@ def _pose(key: str, value: Any, *, yaw_required: bool) -> tuple[float, float, fl
     return x, y, d, None if raw is None else _number(_join(key, "yaw_deg"), raw)
 
 
+def _goal(key: str, index: int, value: Any) -> tuple[float, float, float, float | None]:
+    """A goal pose; its values judged by the onboard's one rule (``check_goal_values``: a yaw NaN or
+    within +-360 deg), so a spec refuses what the vehicle would."""
+    from onboard.core.mission.model import Goal
+    from onboard.core.mission.validate import check_goal_values
+
+    x, y, d, yaw = _pose(key, value, yaw_required=False)
+    problems = check_goal_values(index, Goal(x, y, d, None if yaw is None else math.radians(yaw)))
+    if problems:
+        raise _Invalid(key, problems[0].reason)
+    return x, y, d, yaw
+
+
 def _mission(key: str, value: Any, default_name: str) -> MissionSpec:
     item = _mapping(key, value, _MISSION_KEYS, ("start", "goals"))
     name = _name(_join(key, "name"), item["name"]) if "name" in item else default_name
@@ -555,7 +568,7 @@ def _mission(key: str, value: Any, default_name: str) -> MissionSpec:
     if syaw is None:
         raise _Invalid(_join(key, "start.yaw_deg"), "the start needs a heading")
     goals = tuple(
-        _pose(f"{key}.goals[{i}]", g, yaw_required=False)
+        _goal(f"{key}.goals[{i}]", i, g)
         for i, g in enumerate(_list(_join(key, "goals"), item["goals"], non_empty=True))
     )
     obstacles: list[tuple[float, float, float]] = []

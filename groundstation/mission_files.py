@@ -32,7 +32,9 @@ optional ``geoFence`` (``version 2``, ``circles``, ``polygons``) and ``rallyPoin
 - Refused, each with a :class:`MissionFileError` naming the item and why, never dropped: another command
   (the vehicle flies waypoints only), a frame the vehicle does not take, a ``ComplexItem`` (survey, corridor
   scan, structure scan, landing pattern), an inclusion circle, a polygon, a breach return point, rally
-  points. The vehicle judges what is left (area, depth, counts: its mission validator).
+  points. The vehicle judges what is left (area, depth, counts, a goal's yaw NaN or within [-360, 360] deg:
+  its mission validator, the one owner of those rules; its refusal, e.g. MAV_MISSION_INVALID_PARAM4
+  "goal 1: yaw 999 deg is outside [-360, 360] deg", is what ``auv-gcs upload`` prints).
 
 Positions and z, in every format exactly as the vehicle reads them (onboard ``mission_protocol``
 ``item_position``): ``MAV_FRAME_LOCAL_NED`` x, y = metres north, east and z = depth (m, down positive);

@@ -8,14 +8,16 @@
       - {x_m: 5.0, y_m: 3.0, radius_m: 1.5}
 
 ``x_m``, ``y_m`` and ``depth_m`` are required for every goal (a missing depth is an error, never 0);
-``yaw_deg`` is optional (wrapped to (-180, 180], as a MAVLink upload's param4 is). The file is then checked
-by the one validator, :func:`onboard.core.mission.validate.check_mission` (limits from the configuration and
-every leg planned; no start pose: the vehicle's pose is not known at start-up), and any problem is a
-:class:`MissionError` with one line naming the file, the goal or obstacle and the reason.
+``yaw_deg`` is optional. The file is then checked by the one validator,
+:func:`onboard.core.mission.validate.check_mission` (limits from the configuration, a yaw within +-360 deg as
+written, and every leg planned; no start pose: the vehicle's pose is not known at start-up), and any problem
+is a :class:`MissionError` with one line naming the file, the goal or obstacle and the reason. The mission
+returned has its yaws wrapped to (-180, 180], as a MAVLink upload's param4 is.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -64,7 +66,8 @@ def _items(where: str, data: dict[str, Any], key: str) -> list[Any]:
 
 
 def parse_mission(data: Any, where: str = "mission") -> Mission:
-    """The :class:`Mission` of parsed YAML, format checks only (keys, types); raises :class:`MissionError`."""
+    """The :class:`Mission` of parsed YAML, format checks only (keys, types), the yaws as written (not
+    wrapped: the validator judges them); raises :class:`MissionError`."""
     if not isinstance(data, dict):
         raise MissionError("format", f"{where}: expected a mapping with 'goals' (and 'obstacles')")
     unknown = set(data) - {"goals", "obstacles"}
@@ -76,7 +79,7 @@ def parse_mission(data: Any, where: str = "mission") -> Mission:
         item = _mapping(w, raw, _GOAL_KEYS)
         x_m, y_m, depth_m = (_required(w, item, k) for k in _GOAL_REQUIRED)
         yaw_deg = item.get("yaw_deg")
-        yaw_rad = None if yaw_deg is None else wrap_pi(math.radians(_number(w, yaw_deg, "yaw_deg")))
+        yaw_rad = None if yaw_deg is None else math.radians(_number(w, yaw_deg, "yaw_deg"))  # as written
         goals.append(Goal(x_m, y_m, depth_m, yaw_rad))
     obstacles = []
     for i, raw in enumerate(_items(where, data, "obstacles")):
@@ -98,7 +101,11 @@ def mission_from_dict(data: Any, config: CoreConfig, where: str = "mission") -> 
     check = check_mission(mission, config)
     if check.first is not None:
         raise MissionError(check.first.field, f"{where}: {check}")
-    return mission
+    goals = tuple(
+        dataclasses.replace(g, yaw_rad=None if g.yaw_rad is None else wrap_pi(g.yaw_rad))
+        for g in mission.goals
+    )
+    return dataclasses.replace(mission, goals=goals)
 
 
 def load_mission(path: str | Path, config: CoreConfig) -> Mission:

@@ -163,7 +163,7 @@ def check_goal_values(index: int, goal: Goal) -> list[Problem]:
                 index,
                 "yaw",
                 f"yaw {_fmt(math.degrees(yaw))} deg is outside [-{limit_deg}, {limit_deg}] deg "
-                "(leave it out, or NaN, for a free heading)",
+                "(no yaw = a free heading)",
             )
         )
     return out

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import json
 import math
 import time
 from collections.abc import Iterator
@@ -25,6 +26,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.mavclient import MavClient
 from groundstation.mission_files import goal_item, obstacle_item
+from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.standalone import bus_limits
 from onboard.core.params import ParamError, apply_param
 from tests.integration.mavlink.conftest import Vehicle
@@ -148,3 +150,27 @@ def test_mavlink_fence_items_keep_param4_free(vehicle: Vehicle) -> None:
         fence = mavlink.MAV_MISSION_TYPE_FENCE
         item = dataclasses.replace(obstacle_item(50, 50, 2), param4=999.0)
         assert c.upload([item], fence).ok
+
+
+def test_a_persisted_plan_with_yaw_999_is_set_aside_with_the_reason(tmp_path: Path) -> None:
+    """The persisted door: a mission file in the state directory whose goal says yaw 999 (edited, or left by
+    an older version) is not flown after a restart; it is set aside and the reason names the item."""
+    v = Vehicle(tmp_path / "state").start()
+    try:
+        with v.client() as c:
+            assert c.upload([goal_item(10, 0, 1, None), goal_item(10, 10, 1, 90.0)]).ok
+    finally:
+        v.stop()
+    saved = tmp_path / "state" / "mission.json"
+    data = json.loads(saved.read_text())
+    data["items"][1]["param4"] = 999.0
+    saved.write_text(json.dumps(data))
+    store = StateStore(tmp_path / "state")
+    assert store.load_plan(mavlink.MAV_MISSION_TYPE_MISSION) is None
+    (why,) = store.quarantined()
+    assert "item 1" in why and "999" in why, why
+    v2 = Vehicle(tmp_path / "state").start()
+    try:
+        assert v2.link.mission().goals == ()
+    finally:
+        v2.stop()

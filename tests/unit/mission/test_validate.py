@@ -9,7 +9,13 @@ import pytest
 from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Goal, Mission, MissionError, Obstacle
 from onboard.core.mission.params import MissionParams
-from onboard.core.mission.validate import MISSION_INDEX, MissionCheck, Problem, check_mission
+from onboard.core.mission.validate import (
+    MISSION_INDEX,
+    MissionCheck,
+    Problem,
+    check_goal_values,
+    check_mission,
+)
 from onboard.core.safety.failsafe import FailsafeParams
 
 CFG = CoreConfig(failsafe=FailsafeParams(max_depth_m=20.0))
@@ -112,9 +118,17 @@ def test_obstacle_rules() -> None:
     assert huge.first is not None and "not encodable" in huge.first.reason
 
 
-def test_any_finite_yaw_or_none_is_accepted() -> None:
-    assert check_mission(Mission((Goal(10, 0, 1, 7.0), Goal(30, 0, 1, None))), CFG).ok
-    assert check_mission(Mission((Goal(10, 0, 1, math.inf),)), CFG).first.field == "yaw"  # type: ignore[union-attr]
+def test_a_yaw_within_360_deg_or_none_is_accepted_and_beyond_is_refused_naming_the_goal() -> None:
+    """Issue 21 row 16: the yaw rule, as the door received it (not wrapped): None or within +-360 deg."""
+    turn = math.radians(360.0)
+    assert check_mission(Mission((Goal(10, 0, 1, 6.0), Goal(30, 0, 1, None))), CFG).ok
+    assert check_mission(Mission((Goal(10, 0, 1, turn), Goal(30, 0, 1, -turn))), CFG).ok
+    for yaw in (7.0, -7.0, math.radians(999.0), 1e300, math.inf):
+        first = check_mission(Mission((Goal(10, 0, 1, None), Goal(30, 0, 1, yaw))), CFG).first
+        assert first is not None and (first.item, first.index, first.field) == ("goal", 1, "yaw"), first
+    assert str(check_goal_values(1, Goal(0, 0, 1, math.radians(999.0)))[0]).startswith(
+        "goal 1: yaw 999 deg is outside [-360, 360] deg"
+    )
 
 
 def test_limit_problems_skip_planning() -> None:
