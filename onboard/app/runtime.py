@@ -24,7 +24,7 @@ from typing import Any
 import can
 
 from auv_common.config import ConfigError, load_toml
-from onboard.adapters.mavlink.persistence import StateDirError, StateStore
+from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
 from onboard.app.flight_log import FlightLog, LoggedLink, open_flight_log, run_metadata
 from onboard.app.loop import ControlLoop
@@ -289,11 +289,11 @@ def main(argv: list[str] | None = None) -> int:
         cfg0 = build_config(args.config, sets)
         mavlink_on = mavlink_on and cfg0.mavlink.enabled
         store = StateStore(cfg0.mavlink.resolved_state_dir()) if mavlink_on else None
-        if store is not None:
-            store.check_writable()
+        if store is not None:  # a directory that cannot be written is reported, never fatal: the vehicle
+            store.open()  # boots with what it can read, says why at every station, refuses what it can't save
         boot = resolve_boot(cfg0, sets, store)
         mission = load_mission(args.mission, boot.config.core) if args.mission else None
-    except (ConfigError, MissionError, StateDirError) as exc:
+    except (ConfigError, MissionError) as exc:
         print(f"auv-onboard: {exc}", file=sys.stderr)
         return 2
     for line in boot.log_lines:

@@ -18,6 +18,14 @@ request (its verdict is only logged) and a STATUSTEXT; a heartbeat again -> a ST
 regained". When a ground station is first heard, the state files the store set aside at boot are announced
 (one STATUSTEXT each).
 
+Storage: the state directory is probed at boot (:meth:`StateStore.open`, which also removes what killed
+writers left); a vehicle whose directory cannot be written boots all the same, with what it could read.
+While nothing can be saved, SYS_STATUS says so (MAV_SYS_STATUS_LOGGING present, enabled, not healthy) and
+every ground station that connects (its first HEARTBEAT over a link, or the first after ``gcs_timeout_s``
+of silence) hears "storage: nothing can be saved (why)"; a change of the storage health goes to every
+station. Uploads and PARAM_SETs are saved before they are in force and refused with the reason when that
+fails; the store probes again every few seconds, so a disk that frees up is writable without a reboot.
+
 MAVSDK / QGroundControl / MAVProxy interoperability: see :mod:`~onboard.adapters.mavlink.modes` (ArduSub's
 mode numbers in HEARTBEAT, ArduSub's or PX4's in DO_SET_MODE) and :mod:`~onboard.adapters.mavlink.telemetry` (
 GLOBAL_POSITION_INT, EXTENDED_SYS_STATE). MAV_CMD_REQUEST_PROTOCOL_VERSION stays UNSUPPORTED (PROTOCOL_VERSION
@@ -41,7 +49,7 @@ from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
 from onboard.adapters.mavlink.ftp import FileTree, FtpService
 from onboard.adapters.mavlink.mission_service import MissionService, Validator
 from onboard.adapters.mavlink.params import ParamService, SpecLike
-from onboard.adapters.mavlink.peers import Sender
+from onboard.adapters.mavlink.peers import Link, Sender
 from onboard.adapters.mavlink.persistence import StateStore
 from onboard.adapters.mavlink.telemetry import CAPABILITIES, Telemetry
 from onboard.adapters.mavlink.transport import Transport, addressed_to
@@ -54,6 +62,13 @@ log = logging.getLogger(__name__)
 __all__ = ["CAPABILITIES", "VehicleLink"]
 
 MAX_WAIT_S = 0.05
+#: Ground-station links remembered for the storage news at connect (halved, oldest first, beyond it).
+MAX_STATIONS = 64
+
+
+def storage_text(problem: str) -> str:
+    """The one line a station hears while nothing can be saved."""
+    return f"storage: nothing can be saved ({problem})"
 
 
 class VehicleLink:
@@ -88,6 +103,9 @@ class VehicleLink:
         self.config = config
         self._clock = clock
         self.store = store if store is not None else StateStore(config.resolved_state_dir())
+        self.store.open()  # leftovers removed, the directory probed (a problem is reported, never fatal)
+        self._storage_said = self.store.problem()  # what every station heard (a station: at its connect)
+        self._stations: dict[Link, float] = {}  # GCS links heard (last HEARTBEAT), for the connect news
         self._signing_save_failed = False
         self.transport = Transport(
             config,
@@ -111,6 +129,7 @@ class VehicleLink:
             progress=self.missions.progress(),
             fence_circles=lambda: self.missions.mission().obstacles,
             origin=lambda: self.missions.limits,
+            storage_problem=self.store.problem,
         )
         self.commands = CommandService(config, self.transport, self.requests, self.missions, self.telemetry)
         self.ftp = FtpService(
@@ -262,6 +281,7 @@ class VehicleLink:
                 note = self._notes.popleft()
             self.transport.statustext(note.severity, note.text)
         self._watch_gcs(now)
+        self._watch_storage(now)
         self.telemetry.poll(now)
 
     def dispatch(self, msg: mavlink.MAVLink_message, sender: Sender, now: float) -> None:
@@ -271,6 +291,7 @@ class VehicleLink:
             # with signing on, only a signed heartbeat is the operator's
             if msg.type == mavlink.MAV_TYPE_GCS and (msg.get_signed() or not self.transport.signing):
                 self._gcs_heard(now)
+                self._station_heard(sender, now)
             return
         if kind == "SETUP_SIGNING":
             self._setup_signing(msg, sender)
@@ -356,6 +377,35 @@ class VehicleLink:
             self._gcs_lost = False
             self.transport.statustext(Severity.NOTICE, "GCS link regained")
             log.info("ground-station link regained")
+
+    # ---- storage -------------------------------------------------------------------------------
+    def _station_heard(self, sender: Sender, now: float) -> None:
+        """A GCS HEARTBEAT: a station that connects (new link, or silent for ``gcs_timeout_s``) hears
+        what it must know of the storage."""
+        link = sender.link if isinstance(sender, Sender) else None
+        if link is None:
+            return
+        last = self._stations.get(link)
+        self._stations[link] = now
+        if last is not None and now - last <= self.config.gcs_timeout_s:
+            return
+        if len(self._stations) > MAX_STATIONS:  # the oldest first: a flood of addresses forgets itself
+            for old in sorted(self._stations, key=self._stations.__getitem__)[: len(self._stations) // 2]:
+                del self._stations[old]
+        problem = self.store.problem()
+        if problem:
+            self.transport.statustext(Severity.ERROR, storage_text(problem), to=sender)
+
+    def _watch_storage(self, now: float) -> None:
+        """Probe again while nothing can be saved; a change of the storage health to every station."""
+        problem = self.store.reprobe(now)
+        if problem == self._storage_said:
+            return
+        self._storage_said = problem
+        if problem:
+            self.transport.statustext(Severity.ERROR, storage_text(problem))
+        else:
+            self.transport.statustext(Severity.NOTICE, "storage: writable again")
 
     def _watch_gcs(self, now: float) -> None:
         last = self._gcs_last_s

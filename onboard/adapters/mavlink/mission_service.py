@@ -10,17 +10,25 @@ A complete transfer (the last item of an upload, MISSION_COUNT 0, MISSION_CLEAR_
    :func:`onboard.core.mission.validate.check_mission` bound to the configuration) in a worker thread,
    with the deadline ``validate_timeout_s``; a problem ends the transfer with the MAV_MISSION code of its
    field (:data:`FIELD_CODES`) and a STATUSTEXT naming the item and the reason;
-3. ``ReplaceMission(mission, goals_changed)`` as a request to the loop: the core's verdict;
-4. only when the core accepted: the items are persisted through the store, the stored plans replaced and
-   MISSION_ACK ACCEPTED sent. Any refusal leaves the stored plans as they were (MAV_MISSION_ERROR and a
-   STATUSTEXT with the core's reason).
+3. the new plans are saved through the store (an acknowledgement means durable): a plan that cannot be
+   saved is refused (MAV_MISSION_ERROR, a STATUSTEXT with the reason, e.g. "No space left on device") and
+   never reaches the core;
+4. ``ReplaceMission(mission, goals_changed)`` as a request to the loop: the core's verdict (the one judge);
+5. accepted: the stored plans replaced and MISSION_ACK ACCEPTED sent; refused: the files are written back
+   to the plans in force (MAV_MISSION_ERROR and a STATUSTEXT with the core's reason). Saving before the core
+   judges keeps "nothing changes in force" without undoing anything in the core; a kill -9 between the save
+   and the verdict may leave a checked but unacknowledged plan to be loaded at the next boot (it passes the
+   same check there).
 
 Mission seq vs goal index: the core counts goals 0..n-1. When the stored mission starts with an
 ArduPilot-style home item (seq 0, see :mod:`onboard.adapters.mavlink.mission_protocol`), MAVLink seq = goal
 index + 1 everywhere; :meth:`MissionService.shape` gives (home offset, number of goals).
 
 Progress: the current goal of the snapshot is persisted (``StateStore.save_progress``) whenever it changes,
-tied to the stored MISSION plan; :meth:`MissionService.progress` returns the persisted one at boot.
+tied to the stored MISSION plan; :meth:`MissionService.progress` returns the persisted one at boot. A save
+that fails is said once (STATUSTEXT, until a save works again) and retried with back-off
+(:data:`PROGRESS_RETRY_S` doubling to :data:`PROGRESS_RETRY_MAX_S`), at once when the store finds the
+directory writable again.
 """
 
 from __future__ import annotations
@@ -60,6 +68,9 @@ log = logging.getLogger(__name__)
 
 #: The flat-earth projection of the global frames holds away from the poles only.
 MAX_ORIGIN_LAT_DEG = 85.0
+#: A progress save that failed is tried again after this (s), doubling up to the maximum.
+PROGRESS_RETRY_S = 1.0
+PROGRESS_RETRY_MAX_S = 30.0
 
 
 class ProblemLike(Protocol):
@@ -169,7 +180,12 @@ class MissionService:
         if initial_mission is not None:  # --mission: checked by the runtime; wins and is persisted
             goals, fences = items_from_mission(initial_mission)
             for mt, items in ((TYPE_MISSION, goals), (TYPE_FENCE, fences)):
-                store.save_plan(mt, items)
+                try:
+                    store.save_plan(mt, items)
+                except OSError as exc:  # the operator's command line: flown this run, said why not kept
+                    log.error(
+                        "--mission: the %s plan is not saved (%s): lost at a restart", _TYPE_NAMES[mt], exc
+                    )
                 self.server.replace(mt, items)
         self.server.take_changed()
         self._lock = threading.Lock()
@@ -180,6 +196,9 @@ class MissionService:
         self._saved_progress: tuple[str, int] | None = (
             None if self._progress is None else (self._key, self._progress)
         )
+        self._progress_failed = False  # said once until a save works again
+        self._progress_retry_s = 0.0  # the next try after a failure (monotonic), and the back-off
+        self._progress_backoff_s = PROGRESS_RETRY_S
         self._executor = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="mission-check")
         self._judge: _Judge | None = None
 
@@ -258,7 +277,7 @@ class MissionService:
                     f"upload refused: the mission check took longer than {limit:g} s",
                 )
         if snapshot is not None:
-            self._save_progress(snapshot)
+            self._save_progress(snapshot, now_s)
 
     def next_deadline(self) -> float | None:
         ds = [d for d in (self.server.next_deadline(),) if d is not None]
@@ -283,8 +302,14 @@ class MissionService:
             code = FIELD_CODES.get(first.field, mavlink.MAV_MISSION_ERROR)
             self._finish(code, describe(first, offset) + more)
             return
-        j.with_core = True
         c = j.candidate
+        why = self._save_plans(c.plans)
+        if why:
+            self._finish(
+                mavlink.MAV_MISSION_ERROR, f"{_TYPE_NAMES.get(c.mission_type, 'plan')} refused: {why}"
+            )
+            return
+        j.with_core = True
         command = core.ReplaceMission(
             j.mission, goals_changed=TYPE_MISSION in c.plans, source=f"MAVLink {c.sender[0]}/{c.sender[1]}"
         )
@@ -294,19 +319,11 @@ class MissionService:
         j = self._judge
         if j is None:
             return
+        c = j.candidate
         if not verdict.accepted:
+            self._restore_plans(c.plans)
             self._finish(mavlink.MAV_MISSION_ERROR, f"upload refused: {verdict.reason}")
             return
-        c = j.candidate
-        for mt, items in sorted(c.plans.items()):
-            try:
-                self.store.save_plan(mt, items)
-            except OSError as exc:  # the core flies it already: say so, do not pretend it was refused
-                log.error("cannot persist the %s plan: %s", _TYPE_NAMES[mt], exc)
-                self.transport.statustext(
-                    Severity.CRITICAL,
-                    f"{_TYPE_NAMES[mt]} accepted but not saved ({exc.strerror or exc}): lost at a restart",
-                )
         self._judge = None
         peer = self.server.transfer_sender
         acks = self.server.finish(mavlink.MAV_MISSION_ACCEPTED)
@@ -331,6 +348,33 @@ class MissionService:
             log.warning("%s", text)
             self.transport.statustext(Severity.WARNING, text, to=peer)
 
+    def _save_plans(self, plans: dict[int, tuple[MissionItem, ...]]) -> str:
+        """Save the new plans before they are in force; "" when done, else why not (the files are then
+        the plans in force again)."""
+        done: list[int] = []
+        for mt, items in sorted(plans.items()):
+            try:
+                self.store.save_plan(mt, items)
+            except OSError as exc:
+                log.error("the %s plan cannot be saved: %s", _TYPE_NAMES[mt], exc)
+                self._restore_plans(dict.fromkeys(done, ()))
+                return f"it cannot be saved ({exc})"
+            done.append(mt)
+        return ""
+
+    def _restore_plans(self, plans: dict[int, tuple[MissionItem, ...]]) -> None:
+        """Write back the plans in force of the types in ``plans`` (a refused candidate was saved)."""
+        for mt in sorted(plans):
+            try:
+                self.store.save_plan(mt, self.server.items(mt))
+            except OSError as exc:
+                text = (
+                    f"the refused {_TYPE_NAMES[mt]} stays saved and is loaded at the next boot: it cannot "
+                    f"be written back ({exc})"
+                )
+                log.critical("%s", text)
+                self.transport.statustext(Severity.CRITICAL, text)
+
     def _to_peer(self, msg: mavlink.MAVLink_message, peer: Sender | None) -> None:
         """A message of the transfer of ``peer``: to its link alone (to every peer when unknown)."""
         if peer is None:
@@ -338,7 +382,7 @@ class MissionService:
         else:
             self.transport.reply(msg, peer)
 
-    def _save_progress(self, s: VehicleSnapshot) -> None:
+    def _save_progress(self, s: VehicleSnapshot, now_s: float) -> None:
         with self._lock:
             n = self._shape[1]
             goals = self._mission.goals
@@ -347,8 +391,22 @@ class MissionService:
         now = (self._key, s.current_goal)
         if now == self._saved_progress:
             return
+        if self._progress_failed and now_s < self._progress_retry_s and self.store.problem():
+            return  # back off, unless the store found the directory writable again
         try:
             self.store.save_progress(s.current_goal, self._key)
         except (OSError, ValueError) as exc:
-            log.error("cannot persist the mission progress: %s", exc)
+            self._progress_retry_s = now_s + self._progress_backoff_s
+            self._progress_backoff_s = min(2.0 * self._progress_backoff_s, PROGRESS_RETRY_MAX_S)
+            if not self._progress_failed:
+                self._progress_failed = True
+                text = f"mission progress (goal {s.current_goal}) not saved, retrying: {exc}"
+                log.error("%s", text)
+                self.transport.statustext(Severity.ERROR, text)
+            return
+        if self._progress_failed:
+            self._progress_failed = False
+            self._progress_backoff_s = PROGRESS_RETRY_S
+            log.warning("mission progress (goal %d) saved again", s.current_goal)
+            self.transport.statustext(Severity.NOTICE, f"mission progress (goal {s.current_goal}) saved")
         self._saved_progress = now

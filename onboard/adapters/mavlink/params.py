@@ -4,10 +4,12 @@ The table is :func:`onboard.core.params.param_table` (one table, ``onboard/core/
 holds only the values in force as the core last reported them. A PARAM_SET is a
 :class:`~onboard.core.commands.SetParam` request judged by the core; its verdict carries the value in force:
 
-- accepted: the ground-station edit is persisted through the store (only the edits whose value differs
-  from the spec's default in float32, :func:`onboard.core.params.is_default`), then PARAM_VALUE;
+- the ground-station edit is saved through the store BEFORE the core judges it (only the edits whose value
+  differs from the spec's default in float32, :func:`onboard.core.params.is_default`): an edit that cannot
+  be saved is refused with the reason and never in force (an acknowledgement means durable);
+- accepted: PARAM_VALUE with the value in force;
 - refused (or not taken by the loop in time): PARAM_VALUE with the value in force and a STATUSTEXT with the
-  reason;
+  reason; the file gets the value in force back (once no other PARAM_SET of that name is in flight);
 - an unknown name has no PARAM_VALUE to answer with: a STATUSTEXT "unknown parameter NAME".
 
 Per link: PARAM_REQUEST_LIST / PARAM_REQUEST_READ and a refused PARAM_SET (its STATUSTEXT and the
@@ -84,6 +86,7 @@ class ParamService:
         self._values: dict[str, float] = {s.name: float(s.default) for s in specs}
         persisted = store.load_params()
         self._edits: dict[str, float] = {n: v for n, v in persisted.items() if n in self._index}
+        self._in_flight: dict[str, int] = {}  # PARAM_SETs saved and with the core, per name
         for name in sorted(set(persisted) - set(self._index)):
             log.warning("persisted parameter %s is not in the table: ignored", name)
         self._booting: set[str] = set()  # persisted edits handed to the core, not judged yet
@@ -155,6 +158,11 @@ class ParamService:
         key = ("param", name, float32(value))
         if self.requests.pending(key):
             return  # a resend: the first one's PARAM_VALUE answers it
+        why = self._persist(name, value)  # saved before it can be in force: an acknowledgement is durable
+        if why:
+            self._refused(name, core.denied(f"{name} not set: it cannot be saved ({why})"), sender)
+            return
+        self._in_flight[name] = self._in_flight.get(name, 0) + 1
         self.requests.submit(
             core.SetParam(name, value, source=f"MAVLink {sender[0]}/{sender[1]}"),
             lambda v: self._answered(name, v, sender),
@@ -162,12 +170,18 @@ class ParamService:
         )
 
     def _answered(self, name: str, verdict: Verdict, sender: Sender | None = None) -> None:
+        left = self._in_flight.pop(name, 1) - 1
+        if left > 0:
+            self._in_flight[name] = left
         if not verdict.accepted:
             self._refused(name, verdict, sender)
+            if left == 0:  # the saved edit was refused: the file says the value in force again
+                self._unsave(name)
             return
         if math.isfinite(verdict.value):
             self._values[name] = verdict.value
-        self._persist(name)
+        if left == 0:  # the file holds the value asked for; the value in force if the core made it another
+            self._persist(name, self._values[name])
         self.transport.send(self._param_value(name))
 
     def _refused(self, name: str, verdict: Verdict, to: Sender | None = None) -> None:
@@ -181,23 +195,32 @@ class ParamService:
         else:
             self.transport.reply(self._param_value(name), to)
 
-    def _persist(self, name: str) -> None:
+    def _persist(self, name: str, value: float) -> str:
+        """Save ``name = value`` as a ground-station edit (none when it is the configured value, in
+        float32); "" when saved or nothing to save, else why not (the file is unchanged)."""
         spec = self.specs[self._index[name]]
-        value = self._values[name]
         edits = dict(self._edits)
         if float32(value) == float32(spec.default):
             edits.pop(name, None)
         else:
             edits[name] = value
         if edits == self._edits:
-            return
+            return ""
         try:
             self.store.save_params(edits)
         except OSError as exc:
-            log.error("cannot persist parameters: %s", exc)
-            self.transport.statustext(Severity.ERROR, f"{name} set but not saved: {exc.strerror or exc}")
-            return
+            log.error("cannot save parameters: %s", exc)
+            return str(exc)
         self._edits = edits
+        return ""
+
+    def _unsave(self, name: str) -> None:
+        """After a refusal (none other in flight for ``name``): the file gets the value in force back."""
+        why = self._persist(name, self._values[name])
+        if why:
+            text = f"{name}: the refused value stays saved and applies at the next boot ({why})"
+            log.critical("%s", text)
+            self.transport.statustext(Severity.CRITICAL, text)
 
     def _boot_answer(self, name: str, verdict: Verdict) -> None:
         self._booting.discard(name)

@@ -6,7 +6,15 @@ mission by :func:`mission_key`).
 
 Writing (:func:`write_json_atomic`): to a temporary file, fsync, rename, fsync the directory. After it
 returns, a kill -9 or power loss leaves either the old or the new file, never a partial one. The MAVLink
-endpoint calls it before it acknowledges a mission, a fence or a parameter.
+endpoint saves a mission, a fence or a parameter before it is in force and refuses it when the save fails
+(an acknowledgement means durable). A kill -9 mid-write leaves its temporary file (``.NAME.<pid>.tmp``, or
+the probe's ``.write-probe.<pid>``): :meth:`StateStore.open` removes them at boot.
+
+Storage health (:meth:`StateStore.problem`): "" while the directory can be written, else one line saying
+why not (e.g. "state directory /x is not writable: No space left on device"). Set by the boot probe and
+by every write that fails; cleared by a write or a probe that succeeds (:meth:`StateStore.reprobe` tries
+every :data:`PROBE_PERIOD_S` while there is a problem: a disk that frees up is writable again without a
+reboot). A vehicle whose directory cannot be written still boots with what it can read.
 
 Reading: a file that is not valid JSON, has the wrong shape, or whose values fail the format checks
 (:class:`MissionItem` fields of the right JSON types;
@@ -31,6 +39,7 @@ import json
 import logging
 import math
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -60,6 +69,13 @@ ORIGIN_FILE = "origin.json"
 FORMAT_VERSION = 1
 #: MAVLink PARAM_* ids are at most 16 characters.
 MAX_PARAM_NAME = 16
+#: While the directory cannot be written, a probe this often (s; one small file, synced, removed).
+PROBE_PERIOD_S = 2.0
+_STATE_FILES = (*FILE_NAMES.values(), PARAMS_FILE, PROGRESS_FILE, SIGNING_FILE, SIGNING_KEY_FILE, ORIGIN_FILE)
+#: What a kill -9 leaves: the temporary file of write_json_atomic, or the write probe (``<pid>``).
+_LEFTOVER = re.compile(
+    r"\.(?:(?:" + "|".join(re.escape(n) for n in _STATE_FILES) + r")\.(\d+)\.tmp|write-probe\.(\d+))"
+)
 
 # check_item checks the format only (the limits belong to the whole-mission check); the origin is irrelevant.
 _FORMAT_LIMITS = MissionLimits()
@@ -225,8 +241,89 @@ class StateStore:
     def __init__(self, state_dir: Path | str) -> None:
         self.dir = Path(state_dir)
         self._quarantined: list[str] = []
+        self._problem = ""
+        self._opened = False
+        self._next_probe_s = 0.0
 
-    # ---- start-up checks -------------------------------------------------------------------------
+    # ---- start-up checks and storage health ------------------------------------------------------
+    def open(self) -> str:
+        """At boot (once; again is a no-op): remove what killed writers left, probe the directory.
+
+        Never raises: a directory that cannot be written is logged (ERROR) and returned as the problem
+        (:meth:`problem`); the vehicle boots with what it can read.
+        """
+        if self._opened:
+            return self._problem
+        self._opened = True
+        self.remove_leftovers()
+        problem = self.probe()
+        if problem:
+            log.error("%s: nothing can be saved (missions, parameters, progress are refused)", problem)
+        return problem
+
+    def remove_leftovers(self) -> list[str]:
+        """Remove the temporary files a killed writer left (``.NAME.<pid>.tmp``, ``.write-probe.<pid>``;
+        never this process's own); returns their names."""
+        removed = []
+        try:
+            names = os.listdir(self.dir)
+        except OSError:
+            return []
+        own = str(os.getpid())
+        for name in names:
+            m = _LEFTOVER.fullmatch(name)
+            if m is None or own in m.groups():
+                continue
+            try:
+                (self.dir / name).unlink()
+            except OSError as exc:
+                log.warning("state directory %s: cannot remove the leftover %s: %s", self.dir, name, exc)
+                continue
+            removed.append(name)
+        if removed:
+            log.info("state directory %s: removed what killed writers left: %s", self.dir, ", ".join(removed))
+        return removed
+
+    def problem(self) -> str:
+        """Why the directory cannot be written ("" if the last write or probe worked)."""
+        return self._problem
+
+    def probe(self) -> str:
+        """Probe the directory now (:meth:`check_writable`); returns and records the problem ("" none)."""
+        try:
+            self.check_writable()
+            self._set_problem("")
+        except StateDirError as exc:
+            self._set_problem(str(exc))
+        return self._problem
+
+    def reprobe(self, now_s: float) -> str:
+        """While there is a problem, probe at most every :data:`PROBE_PERIOD_S` (``now_s``: monotonic)."""
+        if self._problem and now_s >= self._next_probe_s:
+            self._next_probe_s = now_s + PROBE_PERIOD_S
+            self.probe()
+        return self._problem
+
+    def _set_problem(self, problem: str) -> None:
+        if problem == self._problem:
+            return
+        if problem:
+            log.error("%s", problem)
+        else:
+            log.warning("state directory %s is writable again", self.dir)
+        self._problem = problem
+
+    def _write(self, name: str, data: Any, durable: bool = True, mode: int = 0o644) -> None:
+        """Every save: :func:`write_json_atomic`, the outcome recorded as the storage health; a failure
+        raises :class:`StateDirError` with one line ("state directory /x is not writable: <why>")."""
+        try:
+            write_json_atomic(self.dir / name, data, durable=durable, mode=mode)
+        except OSError as exc:
+            problem = f"state directory {self.dir} is not writable: {exc.strerror or exc}"
+            self._set_problem(problem)
+            raise StateDirError(problem) from exc
+        self._set_problem("")
+
     def check_writable(self) -> None:
         """Create the directory if needed and prove it writable (a probe file, fsynced, removed).
 
@@ -297,9 +394,8 @@ class StateStore:
 
     # ---- plans -----------------------------------------------------------------------------------
     def save_plan(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
-        write_json_atomic(
-            self.dir / FILE_NAMES[mission_type],
-            {"version": FORMAT_VERSION, "items": [i.to_json() for i in items]},
+        self._write(
+            FILE_NAMES[mission_type], {"version": FORMAT_VERSION, "items": [i.to_json() for i in items]}
         )
 
     def load_plan(self, mission_type: int) -> tuple[MissionItem, ...] | None:
@@ -316,7 +412,7 @@ class StateStore:
 
     # ---- parameters ------------------------------------------------------------------------------
     def save_params(self, values: dict[str, float]) -> None:
-        write_json_atomic(self.dir / PARAMS_FILE, {"version": FORMAT_VERSION, "params": values})
+        self._write(PARAMS_FILE, {"version": FORMAT_VERSION, "params": values})
 
     def load_params(self) -> dict[str, float]:
         """The persisted parameter values, or {} (nothing stored, or the file was invalid and set aside)."""
@@ -331,8 +427,8 @@ class StateStore:
 
     # ---- geodetic origin (SET_GPS_GLOBAL_ORIGIN) ---------------------------------------------------
     def save_origin(self, lat_deg: float, lon_deg: float, alt_m: float) -> None:
-        write_json_atomic(
-            self.dir / ORIGIN_FILE,
+        self._write(
+            ORIGIN_FILE,
             {"version": FORMAT_VERSION, "lat_deg": lat_deg, "lon_deg": lon_deg, "alt_m": alt_m},
         )
 
@@ -355,8 +451,8 @@ class StateStore:
         """Persist the active goal of the mission whose :func:`mission_key` is ``mission_key``."""
         if not _is_int(goal_index) or goal_index < 0:
             raise ValueError(f"goal_index must be an integer >= 0, got {goal_index!r}")
-        write_json_atomic(
-            self.dir / PROGRESS_FILE,
+        self._write(
+            PROGRESS_FILE,
             {"version": FORMAT_VERSION, "mission_key": mission_key, "goal_index": goal_index},
         )
 
@@ -383,7 +479,7 @@ class StateStore:
         """Persist the key a SETUP_SIGNING set (None: signing turned off); it wins over the configured key
         file at the next boot. Owner-only (0600) from its creation, atomic and synced."""
         data = {"version": FORMAT_VERSION, "key": key.hex() if key is not None else None}
-        write_json_atomic(self.dir / SIGNING_KEY_FILE, data, mode=0o600)
+        self._write(SIGNING_KEY_FILE, data, mode=0o600)
 
     def load_signing_key(self) -> tuple[bool, bytes | None]:
         """(set, key): whether a SETUP_SIGNING set the key, and the key (None: off). A file that exists but
@@ -423,9 +519,7 @@ class StateStore:
     def save_signing_timestamp(self, timestamp: int) -> None:
         """Persist the newest signing timestamp accepted (10 us units since 2015): after a restart no packet
         at or below it is accepted (a replay). Written at every advance, atomically, not synced."""
-        write_json_atomic(
-            self.dir / SIGNING_FILE, {"version": FORMAT_VERSION, "timestamp": int(timestamp)}, durable=False
-        )
+        self._write(SIGNING_FILE, {"version": FORMAT_VERSION, "timestamp": int(timestamp)}, durable=False)
 
     def load_signing_timestamp(self) -> int:
         """The persisted signing timestamp, or 0 (none; an invalid file is set aside)."""

@@ -132,9 +132,11 @@ class Telemetry:
         progress: int | None = None,
         fence_circles: Callable[[], tuple[Obstacle, ...]] = tuple,
         origin: Callable[[], MissionLimits] | None = None,
+        storage_problem: Callable[[], str] | None = None,
     ) -> None:
         self.config = config
         self._fence_circles = fence_circles
+        self._storage_problem = storage_problem  # "" = the state directory can be written
         self.transport = transport
         self._clock = clock
         self._shape = shape
@@ -361,6 +363,10 @@ class Telemetry:
             load = _i(s.loop_load * 1000.0, 0, 65535)
             errors = self._error_count()
             present, enabled, health = self._sensor_bits(s)
+            if self._storage_problem is not None:  # LOGGING: the state directory (saving) works
+                bit = mavlink.MAV_SYS_STATUS_LOGGING
+                present, enabled = present | bit, enabled | bit
+                health = health | bit if not self._storage_problem() else health & ~bit
             m = mavlink.MAVLink_sys_status_message(
                 present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
                 _i(s.overruns, 0, 65535), 0, 0, 0,

@@ -274,3 +274,29 @@ def test_a_signing_key_file_that_cannot_be_used_fails_closed(tmp_path: Path, con
     # aside and announced
     assert set_ and key is not None and len(key) == 32
     assert len(store.quarantined()) == 1 and StateStore(tmp_path).load_signing_key() == (True, key)
+
+
+def test_open_removes_what_killed_writers_left_but_never_its_own(tmp_path: Path) -> None:
+    # issue 21 row 17: a kill -9 in write_json_atomic or the probe leaves its temporary file for ever
+    own = f".params.json.{os.getpid()}.tmp"
+    for name in (".progress.json.12.tmp", ".write-probe.13", own, ".other.json.14.tmp", "x.tmp"):
+        (tmp_path / name).write_text("{")
+    store = StateStore(tmp_path)
+    assert store.open() == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([own, ".other.json.14.tmp", "x.tmp"])
+
+
+def test_a_failed_save_is_the_storage_problem_until_a_probe_or_save_works(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    store = StateStore(blocker)  # a "directory" that is a file: nothing can be saved
+    assert "is not a directory" in store.open()
+    with pytest.raises(StateDirError, match="is not writable"):
+        store.save_params({"PD_KP5": -0.5})
+    assert store.problem().startswith(f"state directory {blocker} is not writable")
+    assert store.reprobe(0.0) and store.reprobe(0.1)  # still broken; probed at most every PROBE_PERIOD_S
+    blocker.unlink()
+    assert store.reprobe(0.2) != ""  # not yet due
+    assert store.reprobe(100.0) == ""  # the next probe finds it writable (created)
+    store.save_params({"PD_KP5": -0.5})
+    assert store.load_params() == {"PD_KP5": -0.5}

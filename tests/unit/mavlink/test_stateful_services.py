@@ -711,6 +711,10 @@ class MissionMachine(_VehicleMachine):
         if self.stored[TYPE_MISSION] or self.stored[TYPE_FENCE]:
             event("mission: reboot with stored plans")
         self.release_slow()
+        j = self.vehicle.link.missions._judge
+        if j is not None and j.with_core:  # saved before the core judges: a restart now boots with it
+            event("mission: reboot while the core judges")
+            self.stored.update(j.candidate.plans)
         self.vehicle.close()
         self.up = self.judging = self.last_done = None
         self.boot()
@@ -723,10 +727,14 @@ class MissionMachine(_VehicleMachine):
             return
         link = self.v.link
         srv = link.missions.server
+        j = link.missions._judge
+        with_core = j.candidate.plans if j is not None and j.with_core else {}
         for mt in (TYPE_MISSION, TYPE_FENCE):
             want = [i.key() for i in self.stored[mt]]
             assert [i.key() for i in srv.items(mt)] == want
-            assert [i.key() for i in StateStore(self.dir).load_plan(mt) or ()] == want  # as persisted
+            # as persisted; a candidate with the core was saved before it judges (issue 21: durable ACK)
+            saved = [i.key() for i in with_core[mt]] if mt in with_core else want
+            assert [i.key() for i in StateStore(self.dir).load_plan(mt) or ()] == saved
         assert link.mission() == model_mission(self.stored)
         owner = self.judging.owner if self.judging else self.up.owner if self.up else None
         assert srv.transfer_sender == (None if owner is None else self.peers[owner])
@@ -795,6 +803,7 @@ class ParamMachine(_VehicleMachine):
         super().__init__("stateful-param-")
         self.values = {s.name: float(s.default) for s in SPECS}
         self.pending: list[tuple[str, float, float]] = []  # (name, value as received, deadline), in order
+        self.file: dict[str, float] = {}  # params.json: an edit is saved before the core judges it
         self.gcs = Sender(255, 190, (1, ("10.0.0.1", 14550)))
         self.ap: Autopilot | None = None
 
@@ -859,6 +868,7 @@ class ParamMachine(_VehicleMachine):
             event("param: resend while pending")
         else:
             self.pending.append((name, value, self.vehicle.t + 1.0))
+            self.save(name, value)
         self.vehicle.rx(C.MAVLink_param_set_message(1, 1, name.encode(), value, ptype), self.gcs)
         self.check_out(exp, texts)
 
@@ -886,7 +896,9 @@ class ParamMachine(_VehicleMachine):
             if not ok:
                 texts.append(name)  # the core's reason names the parameter
             exp.append((self.pv(name), None if ok else self.gcs.link))  # a change: to every peer
+        answered = {n for n, _, _ in self.pending}
         self.pending = []
+        self.settle(answered)
         bridge.before_tick(self.ap, self.vehicle.link)
         self.vehicle.poll()
         self.check_out(exp, texts)
@@ -898,7 +910,9 @@ class ParamMachine(_VehicleMachine):
         exp = [(self.pv(n), self.gcs.link) for n, _, deadline in self.pending if now >= deadline]
         if exp:
             event("param: loop not running")
+        answered = {n for n, _, deadline in self.pending if now >= deadline}
         self.pending = [p for p in self.pending if now < p[2]]
+        self.settle(answered)
         self.vehicle.poll(dt)
         self.check_out(exp, ["the control loop is not running"] * len(exp))
 
@@ -920,8 +934,11 @@ class ParamMachine(_VehicleMachine):
 
     @rule()
     def reboot(self) -> None:
-        """A restart: the persisted edits (the non-default values) go to a fresh core, then one tick."""
-        self.values = {s.name: self.edits().get(s.name, float(s.default)) for s in SPECS}
+        """A restart: the persisted edits go to a fresh core, then one tick. An edit saved but not yet
+        judged (pending at the restart) is judged at boot like the others; a refused one stays in the file."""
+        self.values = {s.name: float(s.default) for s in SPECS}
+        for name, value in self.file.items():
+            self.values[name] = self.judged(name, value)[1]
         self.boot()
         assert self.ap is not None
         bridge.before_tick(self.ap, self.vehicle.link)
@@ -937,7 +954,19 @@ class ParamMachine(_VehicleMachine):
             return
         assert self.v.link.params.values() == self.values
         assert {n: param_value(self.ap.config, n) for n in SPEC} == self.values  # the core agrees
-        assert StateStore(self.dir).load_params() == self.edits()
+        assert StateStore(self.dir).load_params() == self.file
+
+    def save(self, name: str, value: float) -> None:
+        """The link saves ``name`` = ``value`` as an edit (none when it is the default, in float32)."""
+        if f32(value) == f32(SPEC[name].default):
+            self.file.pop(name, None)
+        else:
+            self.file[name] = value
+
+    def settle(self, names: set[str]) -> None:
+        """The last answer for a name: the file holds the value in force (saved before, issue 21)."""
+        for name in names - {n for n, _, _ in self.pending}:
+            self.save(name, self.values[name])
 
 
 ParamMachine.TestCase.settings = SETTINGS
