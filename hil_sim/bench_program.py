@@ -29,6 +29,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -330,7 +331,8 @@ class BenchResult:
     started: bool = False
     onboard_state: str = ""
     failsafe_timeouts: int = 0
-    bus_lost: bool = False  # the hub went away mid-run (exit 1)
+    bus_lost: bool = False  # the bus went away mid-run and could not come back (exit 1)
+    bus_losses: int = 0  # times the bus was lost and reopened with back-off while the bench ran on
     rejected: dict[str, int] = field(default_factory=dict)
     stop_reason: str = ""
     run_wall_time_s: float = 0.0  # wall time from the start of simulated time to the end
@@ -454,18 +456,40 @@ BENCH_LISTENS: tuple[type[m.BusMessage], ...] = (m.FinCmd, m.PropCmd, m.SyncAck,
 def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -> BenchResult:
     """Run the bench until ``stop``, the duration, a stop state, or (lock-step) a missing echo."""
     bench = Bench(cfg)
-    hub: BenchHub | None = None
     codec = Codec()
     listen = [codec.frame_id(c) for c in BENCH_LISTENS]
     filters = None if cfg.bus.record else listen  # a recording bench hears the whole bus
+    hubs: list[BenchHub] = []  # the hub hosted now (one at most)
+    reopen: Callable[[], Any] | None = None
     if bus_override is not None:
         bus = bus_override
     elif cfg.bus.interface == "remote" and cfg.bench.host_hub:
-        hub = BenchHub(cfg.bus.channel, cfg.bus.hub_channel, filters)
-        bus = hub.bus
+        hubs.append(BenchHub(cfg.bus.channel, cfg.bus.hub_channel, filters))
+        bus = hubs[0].bus
+
+        def reopen() -> Any:  # the hub process ended: host a new one on the same port
+            while hubs:
+                hubs.pop().close()
+            hubs.append(BenchHub(cfg.bus.channel, cfg.bus.hub_channel, filters, start_timeout_s=5.0))
+            return hubs[0].bus
+
     else:
         bus = open_bus(cfg.bus, stop=stop, listen_ids=filters)
-    port = BusPort(bus, time.monotonic, listen, codec, record=cfg.bus.record or None)
+
+        def reopen() -> Any:
+            return open_bus(cfg.bus, timeout_s=0.0, listen_ids=filters)
+
+    # A bus is a link that can come back: the bench simulates on while it is lost (no command reaches the
+    # actuator node, whose watchdog holds the actuators) and the port reopens it with back-off.
+    port = BusPort(
+        bus,
+        time.monotonic,
+        listen,
+        codec,
+        record=cfg.bus.record or None,
+        reopen=reopen,
+        reconnect_max_s=cfg.bus.reconnect_max_s,
+    )
     if cfg.bench.time_mode == "realtime" and codec.rates_checkable(bench.setup.control_period_s):
         # as the onboard does: the onboard's frames far above their DBC rate are dropped, on their bus
         # arrival times. Not in lock-step: there the onboard's heartbeat comes every tick before the start
@@ -500,10 +524,11 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
         result.command_timeout_s = bench.command_timeout_s
         result.max_command_gap_s = (bench.node.max_gap_periods + 1) * bench.setup.control_period_s
         result.rejected = dict(port.receiver.rejected)
+        result.bus_losses = port.losses
         if log_file is not None:
             log_file.close()
         port.close()
-        if hub is not None:
+        for hub in hubs:
             hub.close()
     return result
 

@@ -95,6 +95,7 @@ class Autopilot(Protocol):
     def step(self, cache: dict[type, BusMessage], now_s: float, dt_s: float) -> AutopilotOutput: ...
     def note_loop_late(self, late_s: float) -> None: ...
     def note_encode_fault(self, message_name: str, reason: str) -> None: ...
+    def note_bus(self, lost_reason: str) -> None: ...
     def before_step(self) -> None: ...
 
 
@@ -193,6 +194,7 @@ class ControlLoop:
         self._last_sync_tick = -1
         self._pending: list[BusMessage] = []  # lock-step: frames since the last SYNC
         self._last_tick_s = -math.inf
+        self._bus_lost = ""  # the port's word on the bus the autopilot was last told
         # Called before each step (the links' commands reach the autopilot here, on the loop thread).
         self.before_tick: Callable[[float], None] | None = None
         self.plans = PlanWorker.for_autopilot(autopilot, config.time_source == "lockstep")
@@ -210,6 +212,9 @@ class ControlLoop:
         t_compute = time.perf_counter()
         if self._t0_s is None:
             self._t0_s = now_s
+        if self.port.lost != self._bus_lost:  # the bus lost or back (the port reconnects on its own)
+            self._bus_lost = self.port.lost
+            self.autopilot.note_bus(self._bus_lost)
         if self.before_tick is not None:
             self.before_tick(now_s)
         self.autopilot.before_step()

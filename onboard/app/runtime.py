@@ -21,8 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import can
-
 from auv_common.config import ConfigError, load_toml
 from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
@@ -44,7 +42,7 @@ from onboard.core.params import (
     param_table,
     param_value,
 )
-from onboard.protocol.bus import BusUnavailable, hub_went_away, open_bus
+from onboard.protocol.bus import BusUnavailable, open_bus
 from onboard.protocol.codec import Codec, command_ranges
 from onboard.protocol.messages import (
     AhrsAttitude,
@@ -358,7 +356,18 @@ def run(
         raise
     lockstep = cfg.loop.time_source == "lockstep"
     clock = time.monotonic
-    port = BusPort(bus, clock, listen, codec, record=cfg.bus.record or None)
+    listen_ids = None if cfg.bus.record else listen
+    # A bus is a link that can come back: a lost bus (hub gone, interface down) does not end the program.
+    # The port reopens it with back-off; the loop tells the autopilot (BusLost: ABORT, MAVLink on; BusBack).
+    port = BusPort(
+        bus,
+        clock,
+        listen,
+        codec,
+        record=cfg.bus.record or None,
+        reopen=lambda: open_bus(cfg.bus, timeout_s=0.0, listen_ids=listen_ids),
+        reconnect_max_s=cfg.bus.reconnect_max_s,
+    )
     # Frames far above an id's DBC rate are dropped undecoded and the id distrusted (its frames drained once
     # per tick). Not in lock-step on this wall clock (the simulation runs faster than it), nor with a loop
     # faster than the bus contract's control period (the bench's status frames follow the loop).
@@ -391,14 +400,8 @@ def run(
             loop.run_lockstep(stop)
         else:
             loop.run_realtime(stop)
-    except (OSError, can.CanError) as exc:  # the bus went away (hub stopped, interface down)
-        log.error("bus lost: %s: %s", type(exc).__name__, exc)
-        code = 1
-    except Exception as exc:
-        if not hub_went_away(exc):
-            log.exception("onboard loop stopped by an unexpected error")
-        else:
-            log.error("bus lost: the bench hub closed the connection")
+    except Exception:  # a lost bus is no error here: the port reconnects (BusPort), the loop runs on
+        log.exception("onboard loop stopped by an unexpected error")
         code = 1
     finally:
         loop.close()
@@ -408,9 +411,10 @@ def run(
         if flight is not None:
             flight.close()
         log.info(
-            "onboard stopped: %d ticks, %d overruns, %d frames rejected %s",
+            "onboard stopped: %d ticks, %d overruns, CAN bus lost %d time(s), %d frames rejected %s",
             loop.stats.ticks,
             loop.stats.overruns,
+            port.losses,
             port.receiver.rejected_total,
             dict(port.receiver.rejected),
         )

@@ -147,6 +147,9 @@ class _TimedAutopilot:
     def note_encode_fault(self, message_name: str, reason: str) -> None:
         self.inner.note_encode_fault(message_name, reason)
 
+    def note_bus(self, lost_reason: str) -> None:
+        self.inner.note_bus(lost_reason)
+
     def before_step(self) -> None:
         self.inner.before_step()
 
@@ -277,6 +280,9 @@ class _StubAutopilot:
         pass
 
     def note_encode_fault(self, message_name: str, reason: str) -> None:
+        pass
+
+    def note_bus(self, lost_reason: str) -> None:
         pass
 
     def before_step(self) -> None:

@@ -174,6 +174,8 @@ class Autopilot:
     autostart_pending: bool = False
     actuator_failsafe: bool = False  # the latest PROP_STATUS / FIN_STATUS failsafe flag
     encode_fault: str = ""  # a command frame that could not be encoded (set by the loop)
+    bus_lost: str = ""  # why the CAN bus is lost ("" while it is up): BusLost / BusBack
+    _bus_abort: MissionStatus | None = None  # the status the bus loss aborted into (BusBack undoes only it)
     _plan_out: PlanRequest | None = None  # asked for, not yet taken by the loop
     _plan_wait: PlanRequest | None = None  # taken (or asked for): the result is awaited
     _plan_ids: int = 0
@@ -193,6 +195,8 @@ class Autopilot:
     @property
     def ready(self) -> tuple[bool, str]:
         """(True, "") when a START would pass the vehicle's own checks, else (False, why)."""
+        if self.bus_lost:
+            return False, f"CAN bus lost ({self.bus_lost})"
         if not (self.last_nav and self.last_nav.valid):
             return False, "navigation not valid yet"
         if self.actuator_failsafe:
@@ -281,6 +285,10 @@ class Autopilot:
             if command.action == "surface" and self.status.active:
                 return self._event(MissionEvent.ABORT, "ground-station link lost: surface")
             return c.accepted(f"ground-station link lost: {command.action} ({state.name})")
+        if isinstance(command, c.BusLost):
+            return self._bus_lost(command.reason)
+        if isinstance(command, c.BusBack):
+            return self._bus_back()
         return c.Verdict(c.Outcome.UNSUPPORTED, f"unknown command {type(command).__name__}")
 
     def _event(
@@ -292,6 +300,37 @@ class Autopilot:
     ) -> c.Verdict:
         result = self.apply(event, detail, goal_index=goal_index, severity=severity)
         return c.accepted(result.reason) if result.accepted else c.denied(result.reason)
+
+    def _bus_lost(self, reason: str) -> c.Verdict:
+        self.bus_lost = reason or "no reason given"
+        what = f"CAN bus lost ({self.bus_lost})"
+        state = self.status.state
+        if state is _ABORT or not (self.actuators_live or self.status.active):
+            self._note(c.Severity.CRITICAL, f"{what}: {state.name}, reconnecting")
+            return c.accepted(f"{what} ({state.name})")
+        verdict = self._event(MissionEvent.FAILSAFE, f"{what}, reconnecting")
+        if verdict.accepted:
+            self._bus_abort = self.status
+        return verdict
+
+    def _bus_back(self) -> c.Verdict:
+        if not self.bus_lost:
+            return c.accepted("CAN bus up")
+        was, self.bus_lost = self.bus_lost, ""
+        aborted, self._bus_abort = self._bus_abort, None
+        if aborted is not None and self.status is aborted:  # nothing happened since the loss's ABORT
+            return self._event(
+                MissionEvent.DISARM,
+                "CAN bus back: disarmed, the mission kept (arm and start to fly it again)",
+                severity=c.Severity.NOTICE,
+            )
+        self._note(c.Severity.NOTICE, f"CAN bus back (it was lost: {was})")
+        return c.accepted(f"CAN bus back ({self.status.state.name})")
+
+    def note_bus(self, lost_reason: str) -> None:
+        """The loop's word on the CAN bus ("": up, else why it is lost), judged like every other command."""
+        if lost_reason != self.bus_lost:
+            self.handle(c.BusLost(lost_reason) if lost_reason else c.BusBack())
 
     def _start(self, first_goal: int | None, src: str) -> c.Verdict:
         state = self.status.state

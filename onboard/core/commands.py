@@ -156,8 +156,38 @@ class LinkLost:
     source: str = ""
 
 
+@dataclass(frozen=True)
+class BusLost:
+    """The CAN bus is gone (``reason``: the hub closed, the interface is down, ...): the vehicle can neither
+    command its actuators nor hear its sensors. A mission under way aborts (propeller 0 is all a command can
+    still mean, and the actuator node's own watchdog stops it anyway); START waits until :class:`BusBack`."""
+
+    reason: str
+    source: str = "CAN bus"
+
+
+@dataclass(frozen=True)
+class BusBack:
+    """The CAN bus is open again. An ABORT the loss caused (nothing since) is acknowledged: disarmed, the
+    mission and its progress kept for the operator to START again once the sensors are back."""
+
+    source: str = "CAN bus"
+
+
 Command = (
-    Arm | Disarm | Start | Hold | Resume | Abort | SetCurrent | SetMode | ReplaceMission | SetParam | LinkLost
+    Arm
+    | Disarm
+    | Start
+    | Hold
+    | Resume
+    | Abort
+    | SetCurrent
+    | SetMode
+    | ReplaceMission
+    | SetParam
+    | LinkLost
+    | BusLost
+    | BusBack
 )
 
 

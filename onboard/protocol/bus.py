@@ -58,6 +58,8 @@ class BusConfig:
     record: path of a ``.blf``/``.asc``/``.log`` (candump -l, which cantools reads) frame log written with
         python-can's loggers ("" = off).
     retry_log_interval_s: while waiting for a bus that is not there yet, one log line this often.
+    reconnect_max_s: a bus lost while running (hub gone, interface down) is reopened after 0.2 s, the wait
+        doubling after each failed attempt up to this (:class:`onboard.protocol.port.BusPort`).
     """
 
     interface: Literal["remote", "virtual", "socketcan", "udp_multicast"] = "remote"
@@ -67,9 +69,11 @@ class BusConfig:
     hop_limit: int = 0
     record: str = ""
     retry_log_interval_s: float = 3.0
+    reconnect_max_s: float = 5.0
 
     def __post_init__(self) -> None:
         require(self.retry_log_interval_s > 0.0, "retry_log_interval_s must be > 0")
+        require(0.2 <= self.reconnect_max_s <= 60.0, "reconnect_max_s must be within 0.2..60 s")
         require(bool(self.hub_channel), "hub_channel must not be empty")
         if self.record:
             require(
@@ -137,6 +141,21 @@ class BusUnavailable(Exception):
 def hub_went_away(exc: BaseException) -> bool:
     """Whether ``exc`` is python-can-remote's "the hub closed the connection" (a plain Exception there)."""
     return type(exc).__name__ == "WebsocketClosed"
+
+
+def bus_lost(exc: BaseException) -> bool:
+    """Whether ``exc`` from a bus's send or recv means the transport is gone (the one rule): the remote hub
+    closed or reset the connection, a socketcan interface went down, any python-can error of the interface.
+    Not an encoding error (a ``ValueError``: the frame is at fault, not the bus)."""
+    return isinstance(exc, OSError | can.CanError) or hub_went_away(exc)
+
+
+def loss_reason(exc: BaseException) -> str:
+    """The operator's words for a lost bus (``CAN bus lost (...)``)."""
+    if hub_went_away(exc):
+        return "the hub closed the connection"
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def acceptance_filters(listen_ids: Iterable[int] | None) -> list[CanFilter] | None:

@@ -40,6 +40,7 @@ class VehicleSnapshot:
     sends MISSION_ITEM_REACHED whenever it increases. ``armed`` is ``Autopilot.actuators_live`` (HEARTBEAT
     SAFETY_ARMED is this bit and nothing else); ``ready`` / ``ready_reason`` say whether START would be
     accepted as far as the vehicle's own checks go; ``reason`` says why the last transition happened.
+    ``bus_lost`` says why the CAN bus is lost ("" while it is up: SYS_STATUS MOTOR_OUTPUTS healthy).
     ``path`` is the path the autopilot flies now (``path_kind`` "goal" to goal ``path_goal_index``, or
     "loiter"), None when it flies none; a new plan is a new object (the link compares by identity).
     """
@@ -50,6 +51,7 @@ class VehicleSnapshot:
     ready: bool = False
     ready_reason: str = ""
     reason: str = ""
+    bus_lost: str = ""
     current_goal: int = 0
     goals_reached: int = 0
     mission_goals: tuple[Goal, ...] = ()  # the goals ``current_goal`` counts in (the mission in force)

@@ -51,7 +51,8 @@ def after_tick(autopilot: Autopilot, link: Link, out: StepOutput, now_s: float, 
 
 
 def status_fields(autopilot: Any) -> dict[str, Any]:
-    """state, armed, ready, ready_reason, reason, current_goal, goals_reached of the autopilot now."""
+    """state, armed, ready, ready_reason, reason, bus_lost, current_goal, goals_reached of the autopilot
+    now."""
     status = autopilot.status
     ready, ready_reason = autopilot.ready
     return {
@@ -60,6 +61,7 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
         "ready": bool(ready),
         "ready_reason": ready_reason,
         "reason": status.reason,
+        "bus_lost": autopilot.bus_lost,
         "current_goal": status.goal_index,
         "goals_reached": autopilot.goals_reached,
         "mission_goals": autopilot.mission.goals,

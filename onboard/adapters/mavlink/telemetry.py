@@ -367,6 +367,10 @@ class Telemetry:
                 bit = mavlink.MAV_SYS_STATUS_LOGGING
                 present, enabled = present | bit, enabled | bit
                 health = health | bit if not self._storage_problem() else health & ~bit
+            # MOTOR_OUTPUTS: the CAN bus to the actuator node (healthy unless lost; the STATUSTEXT says why)
+            motors = mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+            present, enabled = present | motors, enabled | motors
+            health = health & ~motors if s.bus_lost else health | motors
             m = mavlink.MAVLink_sys_status_message(
                 present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
                 _i(s.overruns, 0, 65535), 0, 0, 0,
