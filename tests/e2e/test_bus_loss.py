@@ -14,6 +14,8 @@ watchdog holds the actuators), and a new firmware on the same hub is ready and f
 from __future__ import annotations
 
 import csv
+import os
+import signal
 import subprocess
 import time
 from collections.abc import Callable
@@ -194,3 +196,55 @@ def test_the_bench_outlives_its_firmware_and_serves_the_next_one(tmp_path: Path)
         assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
         assert _flies(truth, x_before + 2.0, 30.0), "the new firmware did not fly"
         assert bench.poll() is None, f"the bench ended (exit {bench.returncode})"
+
+
+def _children(pid: int) -> list[int]:
+    out: list[int] = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        out += [int(c) for c in (task / "children").read_text().split()]
+    return out
+
+
+def test_the_bench_hosts_a_new_hub_when_its_hub_dies_and_both_sides_fly_again(tmp_path: Path) -> None:
+    channel = f"ws://127.0.0.1:{free_port()}/"
+    mav_port = free_udp_port()
+    url = f"udpout:127.0.0.1:{mav_port}"
+    tlogs = tmp_path / "tlogs"
+    mission = tmp_path / "mission.yaml"
+    mission.write_text(MISSION_YAML)
+    truth = tmp_path / "truth.csv"
+    with processes() as procs, open(tmp_path / "procs.log", "w") as log:
+        bench = subprocess.Popen(
+            bench_cmd(channel, "0,0,1.0,0", 600, f"--truth-log={truth}"), stdout=log, stderr=subprocess.STDOUT
+        )
+        procs.append(bench)
+        firmware = subprocess.Popen(
+            onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
+        )
+        procs.append(firmware)
+        # GIVEN the vehicle flying an 80 m mission
+        upload_arm_start(url, tlogs, mission)
+        assert _flies(truth, 2.0, 30.0), "the mission did not fly"
+        # WHEN the bench's CAN hub (a process of its own) is killed: both programs lose their bus
+        (hub_pid,) = _children(bench.pid)
+        os.kill(hub_pid, signal.SIGKILL)
+        with MavClient(url, system_id=204) as gcs:
+            gcs.wait_heartbeat(10.0)
+            # THEN the bench runs on and hosts a new hub on the same port; the firmware reconnects to it
+            # and is ready again, disarmed
+            _wait(gcs, "SYS_STATUS with MOTOR_OUTPUTS healthy", _motor_outputs(healthy=True), 40.0)
+            _wait(
+                gcs,
+                "HEARTBEAT ready (STANDBY)",
+                _is("HEARTBEAT", system_status=mavlink.MAV_STATE_STANDBY),
+                30.0,
+            )
+        assert bench.poll() is None, f"the bench ended (exit {bench.returncode})"
+        assert firmware.poll() is None, f"the firmware ended (exit {firmware.returncode})"
+        # AND a new START flies
+        x_before = _x_max(truth)
+        code, data = run_gcs(url, tlogs, "arm")
+        assert code == 0, data
+        code, data = run_gcs(url, tlogs, "start")
+        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
+        assert _flies(truth, x_before + 2.0, 30.0), "the vehicle did not fly again"
