@@ -233,6 +233,8 @@ class Autopilot:
                 return c.accepted(f"already armed ({state.name})")
             if state is _ABORT:
                 return c.denied("in ABORT: disarm first to acknowledge the abort")
+            if self.bus_lost:
+                return c.not_now(f"CAN bus lost ({self.bus_lost}): the actuators cannot be reached")
             return self._event(MissionEvent.ARM, src)
         if isinstance(command, c.Disarm):
             if state is _IDLE:
