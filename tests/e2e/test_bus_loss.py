@@ -93,7 +93,10 @@ def test_the_firmware_outlives_its_bus_and_flies_again_when_it_is_back(tmp_path:
         )
         procs.append(bench)
         firmware = subprocess.Popen(
-            onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
+            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
+            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
+            stdout=log,
+            stderr=subprocess.STDOUT,
         )
         procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
@@ -119,7 +122,7 @@ def test_the_firmware_outlives_its_bus_and_flies_again_when_it_is_back(tmp_path:
             assert lost, [t.text for t in gcs.texts]
             assert firmware.poll() is None, f"the firmware ended (exit {firmware.returncode})"
             # ... and still answers requests a few seconds on, while it tries to reconnect
-            time.sleep(3.0)
+            time.sleep(1.5)
             assert firmware.poll() is None, f"the firmware ended (exit {firmware.returncode})"
             assert gcs.param_get("LIM_RPS_MAX") > 0.0
             # WHEN the bench (and its hub) is back on the same port
@@ -164,7 +167,10 @@ def test_the_bench_outlives_its_firmware_and_serves_the_next_one(tmp_path: Path)
         )
         procs.append(bench)
         firmware = subprocess.Popen(
-            onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
+            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
+            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
+            stdout=log,
+            stderr=subprocess.STDOUT,
         )
         procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
@@ -219,7 +225,10 @@ def test_the_bench_hosts_a_new_hub_when_its_hub_dies_and_both_sides_fly_again(tm
         )
         procs.append(bench)
         firmware = subprocess.Popen(
-            onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
+            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
+            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
+            stdout=log,
+            stderr=subprocess.STDOUT,
         )
         procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
