@@ -402,6 +402,12 @@ class FrameReceiver:
         self.receive_period_s = receive_period_s
         self._buckets.clear()
 
+    def new_session(self) -> None:
+        """Forget every sender's alive counter and rate measurement (a bus reopened: a restarted peer starts
+        its counters anew); the rejection counts are kept."""
+        self._counters.clear()
+        self._buckets.clear()
+
     def receive(
         self, frame_id: int, data: bytes, t_rx_s: float, t_bus_s: float | None = None
     ) -> BusMessage | None:

@@ -164,8 +164,7 @@ class BusPort:
             return False
         self.bus = bus
         # a new session: a restarted peer's alive counters start anew, its rates are measured afresh
-        self.receiver._counters.clear()
-        self.receiver._buckets.clear()
+        self.receiver.new_session()
         log.warning("CAN bus back (lost %d time(s): %s)", self.losses, self.lost)
         self.lost = ""
         self.restored += 1
