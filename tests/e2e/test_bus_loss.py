@@ -77,32 +77,53 @@ def _flies(truth: Path, metres: float, timeout_s: float) -> bool:
     return False
 
 
+class Flight:
+    """The bench and the firmware as processes on a hub of their own, the vehicle flying an 80 m mission."""
+
+    def __init__(self, tmp_path: Path, procs: list[subprocess.Popen[Any]], log: Any, truth: Path) -> None:
+        self.channel = f"ws://127.0.0.1:{free_port()}/"
+        self.mav_port = free_udp_port()
+        self.url = f"udpout:127.0.0.1:{self.mav_port}"
+        self.tlogs = tmp_path / "tlogs"
+        self.state = tmp_path / "state"
+        self.procs, self.log = procs, log
+        mission = tmp_path / "mission.yaml"
+        mission.write_text(MISSION_YAML)
+        self.bench = self.start_bench(truth)
+        # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
+        self.firmware = self._start(
+            onboard_cmd(self.channel, self.mav_port, self.state, "--set", "bus.reconnect_max_s=1.0")
+        )
+        upload_arm_start(self.url, self.tlogs, mission)
+        assert _flies(truth, 2.0, 30.0), "the mission did not fly"
+
+    def _start(self, cmd: list[str]) -> subprocess.Popen[Any]:
+        proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT)
+        self.procs.append(proc)
+        return proc
+
+    def start_bench(self, truth: Path) -> subprocess.Popen[Any]:
+        return self._start(bench_cmd(self.channel, "0,0,1.0,0", 600, f"--truth-log={truth}"))
+
+    def start_firmware(self) -> subprocess.Popen[Any]:
+        return self._start(onboard_cmd(self.channel, self.mav_port, self.state))
+
+    def arm_start_flies(self, truth: Path, x_before_m: float, what: str) -> None:
+        """ARM and START accepted, and the truth shows the vehicle 2 m further than ``x_before_m``."""
+        code, data = run_gcs(self.url, self.tlogs, "arm")
+        assert code == 0, data
+        code, data = run_gcs(self.url, self.tlogs, "start")
+        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
+        assert _flies(truth, x_before_m + 2.0, 30.0), what
+
+
 def test_the_firmware_outlives_its_bus_and_flies_again_when_it_is_back(tmp_path: Path) -> None:
-    channel = f"ws://127.0.0.1:{free_port()}/"
-    mav_port = free_udp_port()
-    url = f"udpout:127.0.0.1:{mav_port}"
-    tlogs = tmp_path / "tlogs"
-    mission = tmp_path / "mission.yaml"
-    mission.write_text(MISSION_YAML)
     truth1, truth2 = tmp_path / "truth1.csv", tmp_path / "truth2.csv"
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
-        bench = subprocess.Popen(
-            bench_cmd(channel, "0,0,1.0,0", 600, f"--truth-log={truth1}"),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-        )
-        procs.append(bench)
-        firmware = subprocess.Popen(
-            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
-            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-        )
-        procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
-        upload_arm_start(url, tlogs, mission)
-        assert _flies(truth1, 2.0, 30.0), "the mission did not fly"
-        with MavClient(url, system_id=203) as gcs:
+        flight = Flight(tmp_path, procs, log, truth1)
+        bench, firmware = flight.bench, flight.firmware
+        with MavClient(flight.url, system_id=203) as gcs:
             gcs.wait_heartbeat(10.0)
             _wait(gcs, "HEARTBEAT in AUTO", _is("HEARTBEAT", custom_mode=AUTO), 10.0)
             # WHEN the bench, which hosts the CAN hub, is killed mid-mission
@@ -126,12 +147,7 @@ def test_the_firmware_outlives_its_bus_and_flies_again_when_it_is_back(tmp_path:
             assert firmware.poll() is None, f"the firmware ended (exit {firmware.returncode})"
             assert gcs.param_get("LIM_RPS_MAX") > 0.0
             # WHEN the bench (and its hub) is back on the same port
-            bench2 = subprocess.Popen(
-                bench_cmd(channel, "0,0,1.0,0", 600, f"--truth-log={truth2}"),
-                stdout=log,
-                stderr=subprocess.STDOUT,
-            )
-            procs.append(bench2)
+            flight.start_bench(truth2)
             # THEN the vehicle is ready again, disarmed, the bus healthy, and the mission kept
             _wait(gcs, "SYS_STATUS with MOTOR_OUTPUTS healthy", _motor_outputs(healthy=True), 40.0)
             hb = _wait(
@@ -144,38 +160,17 @@ def test_the_firmware_outlives_its_bus_and_flies_again_when_it_is_back(tmp_path:
             items = gcs.download()
             assert len(items) == 1 and items[0].x != 0, items
         # AND a new START flies it
-        code, data = run_gcs(url, tlogs, "arm")
-        assert code == 0, data
-        code, data = run_gcs(url, tlogs, "start")
-        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
-        assert _flies(truth2, 2.0, 30.0), "the restarted mission did not fly"
+        flight.arm_start_flies(truth2, 0.0, "the restarted mission did not fly")
         stop(firmware)
         assert firmware.returncode == 0, firmware.returncode
 
 
 def test_the_bench_outlives_its_firmware_and_serves_the_next_one(tmp_path: Path) -> None:
-    channel = f"ws://127.0.0.1:{free_port()}/"
-    mav_port = free_udp_port()
-    url = f"udpout:127.0.0.1:{mav_port}"
-    tlogs = tmp_path / "tlogs"
-    mission = tmp_path / "mission.yaml"
-    mission.write_text(MISSION_YAML)
     truth = tmp_path / "truth.csv"
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
-        bench = subprocess.Popen(
-            bench_cmd(channel, "0,0,1.0,0", 600, f"--truth-log={truth}"), stdout=log, stderr=subprocess.STDOUT
-        )
-        procs.append(bench)
-        firmware = subprocess.Popen(
-            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
-            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-        )
-        procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
-        upload_arm_start(url, tlogs, mission)
-        assert _flies(truth, 2.0, 30.0), "the mission did not fly"
+        flight = Flight(tmp_path, procs, log, truth)
+        bench, firmware = flight.bench, flight.firmware
         # WHEN the firmware is killed mid-mission
         firmware.kill()
         firmware.wait(10.0)
@@ -190,17 +185,10 @@ def test_the_bench_outlives_its_firmware_and_serves_the_next_one(tmp_path: Path)
         assert bench.poll() is None, f"the bench ended (exit {bench.returncode})"
         # WHEN a new firmware joins the same hub, THEN it is ready (the failsafe cleared) and flies
         x_before = _x_max(truth)
-        firmware2 = subprocess.Popen(
-            onboard_cmd(channel, mav_port, tmp_path / "state"), stdout=log, stderr=subprocess.STDOUT
-        )
-        procs.append(firmware2)
-        code, data = run_gcs(url, tlogs, "wait-ready", "--timeout", "30", timeout_s=30.0)
+        flight.start_firmware()
+        code, data = run_gcs(flight.url, flight.tlogs, "wait-ready", "--timeout", "30", timeout_s=30.0)
         assert code == 0 and data["ready"], data
-        code, data = run_gcs(url, tlogs, "arm")
-        assert code == 0, data
-        code, data = run_gcs(url, tlogs, "start")
-        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
-        assert _flies(truth, x_before + 2.0, 30.0), "the new firmware did not fly"
+        flight.arm_start_flies(truth, x_before, "the new firmware did not fly")
         assert bench.poll() is None, f"the bench ended (exit {bench.returncode})"
 
 
@@ -212,32 +200,15 @@ def _children(pid: int) -> list[int]:
 
 
 def test_the_bench_hosts_a_new_hub_when_its_hub_dies_and_both_sides_fly_again(tmp_path: Path) -> None:
-    channel = f"ws://127.0.0.1:{free_port()}/"
-    mav_port = free_udp_port()
-    url = f"udpout:127.0.0.1:{mav_port}"
-    tlogs = tmp_path / "tlogs"
-    mission = tmp_path / "mission.yaml"
-    mission.write_text(MISSION_YAML)
     truth = tmp_path / "truth.csv"
     with processes() as procs, open(tmp_path / "procs.log", "w") as log:
-        bench = subprocess.Popen(
-            bench_cmd(channel, "0,0,1.0,0", 600, f"--truth-log={truth}"), stdout=log, stderr=subprocess.STDOUT
-        )
-        procs.append(bench)
-        firmware = subprocess.Popen(
-            # a short back-off cap: the test waits less for the reconnection (the default is 5 s)
-            onboard_cmd(channel, mav_port, tmp_path / "state", "--set", "bus.reconnect_max_s=1.0"),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-        )
-        procs.append(firmware)
         # GIVEN the vehicle flying an 80 m mission
-        upload_arm_start(url, tlogs, mission)
-        assert _flies(truth, 2.0, 30.0), "the mission did not fly"
+        flight = Flight(tmp_path, procs, log, truth)
+        bench, firmware = flight.bench, flight.firmware
         # WHEN the bench's CAN hub (a process of its own) is killed: both programs lose their bus
         (hub_pid,) = _children(bench.pid)
         os.kill(hub_pid, signal.SIGKILL)
-        with MavClient(url, system_id=204) as gcs:
+        with MavClient(flight.url, system_id=204) as gcs:
             gcs.wait_heartbeat(10.0)
             # THEN the bench runs on and hosts a new hub on the same port; the firmware reconnects to it
             # and is ready again, disarmed
@@ -252,8 +223,4 @@ def test_the_bench_hosts_a_new_hub_when_its_hub_dies_and_both_sides_fly_again(tm
         assert firmware.poll() is None, f"the firmware ended (exit {firmware.returncode})"
         # AND a new START flies
         x_before = _x_max(truth)
-        code, data = run_gcs(url, tlogs, "arm")
-        assert code == 0, data
-        code, data = run_gcs(url, tlogs, "start")
-        assert code == 0 and data["result"] == "MAV_RESULT_ACCEPTED", data
-        assert _flies(truth, x_before + 2.0, 30.0), "the vehicle did not fly again"
+        flight.arm_start_flies(truth, x_before, "the vehicle did not fly again")
