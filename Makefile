@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint unit bench campaign clean venv
+.PHONY: demo test check lint unit bench campaign clean venv
 
 venv: $(STAMP)
 
@@ -27,11 +27,23 @@ lint: $(STAMP)
 	$(BIN)/lint-imports
 	$(BIN)/python -m tests.import_contract
 
-unit: $(STAMP)
-	$(BIN)/python -m pytest -q tests/unit
+# The documentation site (mkdocs.yml, docs/) into site/; --strict: a broken link, a missing page or a
+# missing included file fails the build.
+.PHONY: docs
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
-test: lint
-	$(BIN)/python -m pytest -q
+# The tiers are markers (tests/conftest.py): unit (one process), integration, e2e (real processes).
+unit: $(STAMP)
+	$(BIN)/python -m pytest -q -n auto -m unit tests/unit
+
+# Before a commit: lint and the unit tier, in about a minute.
+check: lint unit
+
+# The whole suite in parallel (pytest-xdist, one process per core; tests that time watchdogs or flood a
+# shared machine share an xdist_group and so one worker, one after the other).
+test: lint docs
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 # A short campaign (the paper's scenarios x 5 seeds); prints where the report is, opens nothing.
 campaign: $(STAMP)
@@ -41,4 +53,4 @@ bench: $(STAMP)
 	$(BIN)/auv-bench --json bench.json
 
 clean:
-	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache build *.egg-info
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache build *.egg-info site
