@@ -3,6 +3,12 @@
 Every program reads one TOML file with ``tomllib`` into frozen dataclasses that have defaults and range
 checks. Unknown keys, wrong types and out-of-range values stop start-up with one clear line
 (:class:`ConfigError`), never a traceback.
+
+A setting is declared once, beside its default, with :func:`param`: unit, closed range, a one-line
+description and (for an operator parameter) its MAVLink name. The dataclass's ``__post_init__`` calls
+:func:`check_declared`, so the file loader and every ``dataclasses.replace`` refuse a value outside the range
+with one message; the parameter table (``onboard.core.params``) and the generated ``docs/parameters.md``
+read the same declaration (:func:`declaration`, :func:`declared_bounds`).
 """
 
 from __future__ import annotations
@@ -12,6 +18,8 @@ import math
 import tomllib
 import types
 import typing
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -104,6 +112,9 @@ def from_table(cls: type[T], table: dict[str, Any] | None, where: str) -> T:
     table = dict(table or {})
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    removed: dict[str, str] = getattr(cls, "REMOVED_KEYS", {})  # key -> why (and what to set instead)
+    for key in sorted(set(table) & set(removed)):
+        raise ConfigError(f"{where}: {key} was removed: {removed[key]}")
     unknown = sorted(set(table) - set(fields))
     if unknown:
         raise ConfigError(
@@ -123,3 +134,110 @@ def require(condition: bool, message: str) -> None:
     """Range check for ``__post_init__``: raise :class:`ConfigError` with ``message`` if not ``condition``."""
     if not condition:
         raise ConfigError(message)
+
+
+# --- declared settings -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A bound that depends on other values of the same table: ``of(table)`` is the bound with the values
+    in force, ``why`` the rule in words (quoted by a refusal and by the parameter page)."""
+
+    of: Callable[[Any], float]
+    why: str
+
+
+@dataclass(frozen=True)
+class Param:
+    """The declaration of one setting (the ``"param"`` metadata of its dataclass field).
+
+    ``min`` / ``max``: the closed range the configuration accepts (a number, or a :class:`Bound` on other
+    values of the table); ``operator``: for a setting the configuration bounds loosely (e.g. a gain), the
+    widest value a ground station may set, (lo, hi), widened to include the configured value; ``mavlink``:
+    the MAVLink parameter name (at most 16 characters), None if the setting is not an operator parameter.
+    """
+
+    unit: str
+    desc: str
+    min: float | Bound = -math.inf
+    max: float | Bound = math.inf
+    operator: tuple[float, float] | None = None
+    mavlink: str | None = None
+
+
+def param(
+    default: Any,
+    *,
+    unit: str = "",
+    desc: str,
+    min: float | Bound = -math.inf,
+    max: float | Bound = math.inf,
+    operator: tuple[float, float] | None = None,
+    mavlink: str | None = None,
+) -> Any:
+    """A dataclass field with its default and its declaration (:class:`Param`); the dataclass's
+    ``__post_init__`` calls :func:`check_declared`. A subclass that only changes the default
+    (``Kp1: float = 2.0``) keeps the declaration of its base class."""
+    meta = Param(unit, desc, min, max, operator, mavlink)
+    return dataclasses.field(default=default, metadata={"param": meta})
+
+
+def declaration(cls: type, key: str) -> Param | None:
+    """The declaration of ``key`` in the dataclass ``cls`` or the nearest base class that declares it."""
+    for klass in cls.__mro__:
+        f = getattr(klass, "__dataclass_fields__", {}).get(key)
+        if f is not None and "param" in f.metadata:
+            meta: Param = f.metadata["param"]
+            return meta
+    return None
+
+
+def declared(cls: type) -> Iterator[tuple[str, Param]]:
+    """``(key, declaration)`` of every declared setting of the dataclass ``cls``, in field order."""
+    for f in dataclasses.fields(cls):
+        meta = declaration(cls, f.name)
+        if meta is not None:
+            yield f.name, meta
+
+
+def _bound(bound: float | Bound, table: Any) -> float:
+    return float(bound.of(table)) if isinstance(bound, Bound) else float(bound)
+
+
+def declared_bounds(table: Any, key: str) -> tuple[float, float]:
+    """The closed range ``[min, max]`` of ``key`` in the dataclass instance ``table`` (its :class:`Bound`
+    evaluated with the values in force); (-inf, inf) for an undeclared key."""
+    meta = declaration(type(table), key)
+    if meta is None:
+        return -math.inf, math.inf
+    return _bound(meta.min, table), _bound(meta.max, table)
+
+
+def range_text(meta: Param, lo: float, hi: float) -> str:
+    """The range in words, as a refusal states it: ``in [1, 45] deg``, ``>= 0.05 s (why)``."""
+    unit = f" {meta.unit}" if meta.unit else ""
+    whys = [b.why for b in (meta.min, meta.max) if isinstance(b, Bound)]
+    why = f" ({'; '.join(whys)})" if whys else ""
+    if math.isinf(hi):
+        return f">= {lo:g}{unit}{why}"
+    if math.isinf(lo):
+        return f"<= {hi:g}{unit}{why}"
+    return f"in [{lo:g}, {hi:g}]{unit}{why}"
+
+
+def _config_error(key: str, message: str) -> Exception:
+    return ConfigError(message)
+
+
+def check_declared(table: Any, error: Callable[[str, str], Exception] = _config_error) -> None:
+    """Range check of every declared setting of the dataclass instance ``table`` (for ``__post_init__``):
+    raise ``error(key, message)`` (default :class:`ConfigError`) for the first value that is not a finite
+    number within its closed range."""
+    for key, meta in declared(type(table)):
+        value = getattr(table, key)
+        lo, hi = _bound(meta.min, table), _bound(meta.max, table)
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if not (number and math.isfinite(value) and lo <= value <= hi):
+            got = f"{value:.9g}" if number else repr(value)
+            raise error(key, f"{key} must be {range_text(meta, lo, hi)}, got {got}")

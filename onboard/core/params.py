@@ -1,19 +1,19 @@
-"""The parameter table: generated from the running :class:`~onboard.core.config.CoreConfig`, bounded by the
-configuration's own rules and by the DBC.
+"""The parameter table: the settings of :class:`~onboard.core.config.CoreConfig` declared with a MAVLink
+name, their defaults the running configuration's values, bounded by their declarations and by the DBC.
 
-One table (``onboard/core/DESIGN.md``, "Parameters: one table"). Each :class:`ParamSpec` names the
-configuration key it sets (``path``, e.g. ``control.limits.rudder_limit_deg``); its default is the running
-configuration's value; its ``[min, max]`` is the intersection of
+Each parameter is declared once, beside its default, with ``auv_common.config.param`` (unit, closed range,
+description, MAVLink name; e.g. ``PdGains.Kp5`` is ``PD_KP5``). The dataclass's ``__post_init__`` enforces
+the range (the TOML file, ``--set`` and every PARAM_SET go through it); this module reads the same
+declarations for the table (``onboard/core/DESIGN.md``, "Parameters: one table") and
+:func:`parameters_markdown` renders them as ``docs/parameters.md``. A parameter's ``[min, max]`` is the
+intersection of
 
-- the operator range declared below (``sane``: the widest value anyone could mean, for keys the
-  configuration does not bound, e.g. the PD gains; widened to include the configured value),
-- the configuration dataclass's own rules, *read from the dataclass* by trying values (no rule is
-  written twice): the closure of the accepted values. Every bound the rules give is closed and means
-  something: a key whose 0 is refused declares a meaningful minimum beside its rule (e.g.
-  ``FIN_LIMIT_MIN_DEG`` in ``onboard.core.control.actuators``: ``rudder_limit_deg >= 1``), never an open
-  ``> 0`` that a subnormal 1.4e-45 passes; so the configuration file and the parameter agree (a file value
-  below the minimum stops start-up), the minimum is served as the parameter's ``min`` and a PARAM_SET
-  below it is refused with the dataclass's reason, which states it,
+- its declared range (a number, or a ``Bound`` on other values of its table, evaluated with the values in
+  force: e.g. LIM_RPS_MAX >= propeller_min_rps + 1); every bound is closed and means something: a key
+  whose 0 is refused declares a meaningful minimum (e.g. ``FIN_LIMIT_MIN_DEG``), never an open ``> 0``
+  that a subnormal 1.4e-45 passes, so the file and the parameter agree,
+- its operator range (``operator``: the widest value a ground station may set, for keys the configuration
+  bounds loosely, e.g. the PD gains; widened to include the configured value),
 - the DBC signal ranges of the command frames (:class:`BusLimits`, read from the DBC by the app), so no
   value in range can make a FIN_CMD / PROP_CMD that the codec refuses to encode.
 
@@ -28,15 +28,15 @@ Pure: no cantools here (the DBC ranges come in as data).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import struct
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from auv_common.config import ConfigError
+from auv_common.config import Bound, ConfigError, Param, declared, declared_bounds
 from onboard.core.config import CoreConfig
+from onboard.core.control.pd import ProfileName
 
 NAME_MAX_CHARS = 16  # MAVLink param_id
 
@@ -137,90 +137,51 @@ def is_default(spec: ParamSpec, value: float) -> bool:
     return float32(value) == float32(spec.default)
 
 
-# --- the declarations: the ONE list of parameters ---------------------------------------------------
+# --- the declarations, read from the configuration's dataclasses -------------------------------------
+
+#: The tables the parameter table reads, in its order ("{profile}": the active control profile's gains).
+SECTIONS: tuple[str, ...] = (
+    "control.{profile}",
+    "control.limits",
+    "planner",
+    "guidance",
+    "mission",
+    "failsafe",
+)
 
 
 @dataclass(frozen=True)
-class _Decl:
-    name: str
-    path: str  # "{profile}" = the active control profile
-    unit: str
-    description: str
-    sane: tuple[float, float]  # the operator range; the config's rules and the DBC narrow it
+class _Entry:
+    name: str  # the MAVLink name
+    section: str  # a member of SECTIONS
+    key: str
+    meta: Param
 
 
-def _gain_decls() -> tuple[_Decl, ...]:
-    # eqs. 8-10: which output each gain drives from which error (units from onboard.core.control.pd)
-    rows = (
-        ("rps", "e_x", "rps/m", "rps.s/m"),
-        ("rps", "e_y", "rps/m", "rps.s/m"),
-        ("rps", "e_z", "rps/m", "rps.s/m"),
-        ("rudder", "e_x", "rad/m", "rad.s/m"),
-        ("rudder", "e_y", "rad/m", "rad.s/m"),
-        ("rudder", "e_psi", "rad/rad", "rad.s/rad"),
-        ("stern", "e_z", "rad/m", "rad.s/m"),
-        ("stern", "e_theta", "rad/rad", "rad.s/rad"),
-    )
+def _get(config: Any, path: str) -> Any:
+    node = config
+    for part in path.split(".") if path else ():
+        node = getattr(node, part)
+    return node
+
+
+def _read_entries() -> tuple[_Entry, ...]:
+    defaults = CoreConfig()
     out = []
-    for i, (output, error, p_unit, d_unit) in enumerate(rows, start=1):
-        out.append(_Decl(f"PD_KP{i}", f"control.{{profile}}.Kp{i}", p_unit, f"PD {output} P gain on {error}",
-                         (-100.0, 100.0)))  # fmt: skip
-        out.append(_Decl(f"PD_KD{i}", f"control.{{profile}}.KD{i}", d_unit, f"PD {output} D gain on {error}",
-                         (-100.0, 100.0)))  # fmt: skip
+    for section in SECTIONS:
+        table = type(_get(defaults, section.format(profile=defaults.control.profile)))
+        for key, meta in declared(table):
+            if meta.mavlink is not None:
+                out.append(_Entry(meta.mavlink, section, key, meta))
     return tuple(out)
 
 
-_DECLS: tuple[_Decl, ...] = (
-    *_gain_decls(),
-    _Decl("PD_RUD_FF_RADM", "control.{profile}.rudder_per_curvature_radm", "rad.m",
-          "rudder feed-forward per path curvature", (0.0, 10.0)),
-    _Decl("PD_ROLL_KP", "control.{profile}.roll_kp", "rad/rad", "roll damping P gain (split stern)",
-          (-10.0, 10.0)),
-    _Decl("PD_ROLL_KD", "control.{profile}.roll_kd", "rad.s/rad", "roll damping D gain (split stern)",
-          (-10.0, 10.0)),
-    _Decl("PD_DTAU_S", "control.{profile}.derivative_tau_s", "s", "derivative low-pass time constant",
-          (0.0, 10.0)),
-    _Decl("LIM_RUDDER_DEG", "control.limits.rudder_limit_deg", "deg", "rudder angle limit", (0.0, 90.0)),
-    _Decl("LIM_STERN_DEG", "control.limits.stern_limit_deg", "deg", "stern-plane angle limit (each plane)",
-          (0.0, 90.0)),
-    _Decl("LIM_RPS_MAX", "control.limits.propeller_max_rps", "rps", "propeller speed limit", (0.0, 100.0)),
-    _Decl("LIM_FIN_RATE_DPS", "control.limits.fin_rate_limit_degps", "deg/s", "fin rate limit (0 = off)",
-          (0.0, 360.0)),
-    _Decl("LIM_RPS_RATE", "control.limits.propeller_rate_limit_rps_per_s", "rps/s",
-          "propeller acceleration limit (0 = off)", (0.0, 200.0)),
-    _Decl("PLN_W_D", "planner.weight_distance", "1/m", "planner weight on distance", (0.0, 1000.0)),
-    _Decl("PLN_W_PSI", "planner.weight_yaw", "1/rad", "planner weight on cumulative yaw change",
-          (0.0, 1000.0)),
-    _Decl("PLN_W_DR", "planner.weight_rudder", "1/(rad.m)", "planner weight on cumulative rudder",
-          (0.0, 1000.0)),
-    _Decl("PLN_MARGIN_M", "planner.obstacle_margin_m", "m", "obstacle safety margin", (0.0, 50.0)),
-    _Decl("PLN_R_MIN_M", "planner.turning_radius_m", "m", "planning turning radius", (0.0, 100.0)),
-    _Decl("PLN_MAX_SLOPE", "planner.max_depth_slope", "", "largest depth change per metre of path",
-          (0.0, 2.0)),
-    _Decl("GDE_SPEED_MPS", "guidance.speed_mps", "m/s", "speed along the path", (0.0, 5.0)),
-    _Decl("GDE_LOOKAHD_M", "guidance.lookahead_m", "m", "LOS lookahead distance", (0.0, 50.0)),
-    _Decl("GDE_ILOS_GAIN", "guidance.ilos_gain", "", "ILOS integral gain", (0.0, 10.0)),
-    _Decl("GDE_XERR_LIM_M", "guidance.cross_error_limit_m", "m", "cross-track error limit (0 = none)",
-          (0.0, 50.0)),
-    _Decl("GDE_PREVIEW_S", "guidance.curvature_preview_s", "s", "curvature feed-forward preview",
-          (0.0, 10.0)),
-    _Decl("GDE_ACCEL_MPS2", "guidance.reference_accel_mps2", "m/s^2", "track reference acceleration",
-          (0.0, 5.0)),
-    _Decl("MIS_ARRIVE_R_M", "mission.arrival_radius_m", "m", "goal arrival radius", (0.0, 100.0)),
-    _Decl("MIS_MAX_TRIES", "mission.max_tries", "", "attempts at one goal before HOLD", (1.0, 100.0)),
-    _Decl("MIS_LOITER_R_M", "mission.loiter_radius_m", "m", "loiter radius (0 = twice the turning radius)",
-          (0.0, 1000.0)),
-    _Decl("FS_MAX_DEPTH_M", "failsafe.max_depth_m", "m", "depth failsafe limit", (0.0, 100.0)),
-    _Decl("FS_NAV_TMO_S", "failsafe.nav_timeout_s", "s", "navigation staleness timeout", (0.0, 10.0)),
-    _Decl("FS_ABORT_STN_DEG", "failsafe.abort_stern_deg", "deg", "nose-up stern of the abort command",
-          (0.0, 90.0)),
-)  # fmt: skip
-
-_BY_NAME: dict[str, _Decl] = {d.name: d for d in _DECLS}
-if len(_BY_NAME) != len(_DECLS):  # pragma: no cover - a declaration mistake
+_ENTRIES: tuple[_Entry, ...] = _read_entries()
+_BY_NAME: dict[str, _Entry] = {e.name: e for e in _ENTRIES}
+if len(_BY_NAME) != len(_ENTRIES):  # pragma: no cover - a declaration mistake
     raise RuntimeError("duplicate parameter names")
 
-PARAM_NAMES: tuple[str, ...] = tuple(d.name for d in _DECLS)
+PARAM_NAMES: tuple[str, ...] = tuple(e.name for e in _ENTRIES)
 
 
 def _deg_within(rad_range: tuple[float, float]) -> float:
@@ -250,18 +211,11 @@ _BUS_BOUNDS: dict[str, Any] = {
 }
 
 
-# --- reading the configuration's rules by trying values ---------------------------------------------
+# --- the range of one parameter -----------------------------------------------------------------------
 
 
-def _path(decl: _Decl, config: CoreConfig) -> str:
-    return decl.path.format(profile=config.control.profile)
-
-
-def _get(config: Any, path: str) -> Any:
-    node = config
-    for part in path.split("."):
-        node = getattr(node, part)
-    return node
+def _path(entry: _Entry, config: CoreConfig) -> str:
+    return f"{entry.section.format(profile=config.control.profile)}.{entry.key}"
 
 
 def _replace(node: Any, parts: list[str], value: Any) -> Any:
@@ -281,38 +235,6 @@ def _refusal(leaf: Any, key: str, value: float) -> str | None:
     return None
 
 
-def _ordered(x: float) -> int:
-    """Floats as integers in the same order, neighbours one apart."""
-    bits = struct.unpack("<Q", struct.pack("<d", x))[0]
-    return -(bits & ((1 << 63) - 1)) if bits >> 63 else bits
-
-
-def _unordered(i: int) -> float:
-    bits = (-i) | (1 << 63) if i < 0 else i
-    return float(struct.unpack("<d", struct.pack("<Q", bits))[0])
-
-
-def _config_bound(leaf: Any, key: str, start: float, end: float) -> float:
-    """The bound of the values the dataclass accepts going from ``start`` (accepted) towards ``end``.
-
-    ``end`` if accepted; else the boundary found by bisection to the last float, taken as the closure
-    (of the two neighbouring floats at the boundary, the one the rule's constant is: the shorter number),
-    so ``x >= 1`` gives 1 and ``x <= 45`` gives 45 (an open ``x > 0`` would give 0, itself refused: the
-    rules declare closed, meaningful bounds instead, see the module docstring).
-    """
-    if _refusal(leaf, key, end) is None:
-        return end
-    good, bad = _ordered(start), _ordered(end)
-    while abs(good - bad) > 1:
-        mid = (good + bad) // 2
-        if _refusal(leaf, key, _unordered(mid)) is None:
-            good = mid
-        else:
-            bad = mid
-    a, r = _unordered(good), _unordered(bad)
-    return r if len(repr(r)) < len(repr(a)) else a
-
-
 @dataclass(frozen=True)
 class _Bounds:
     spec: ParamSpec
@@ -320,39 +242,141 @@ class _Bounds:
     hi_why: str
 
 
-@functools.lru_cache(maxsize=1024)
-def _bounds(decl: _Decl, path: str, leaf: Any, bus: BusLimits) -> _Bounds:
-    key = path.rsplit(".", 1)[1]
-    default = float(getattr(leaf, key))
-    sane_lo, sane_hi = min(decl.sane[0], default), max(decl.sane[1], default)
-    lo, hi = _config_bound(leaf, key, default, sane_lo), _config_bound(leaf, key, default, sane_hi)
-    lo_why = "the configuration's rules" if lo != sane_lo else "the operator range"
-    hi_why = "the configuration's rules" if hi != sane_hi else "the operator range"
+def _bounds(entry: _Entry, config: CoreConfig, bus: BusLimits) -> _Bounds:
+    """The declared range (with the values in force) within the operator range (widened to the configured
+    value) and the DBC's."""
+    path = _path(entry, config)
+    leaf = _get(config, path.rsplit(".", 1)[0])
+    default = float(getattr(leaf, entry.key))
+    rule_lo, rule_hi = declared_bounds(leaf, entry.key)
+    op_lo, op_hi = entry.meta.operator or (-math.inf, math.inf)
+    op_lo, op_hi = min(op_lo, default), max(op_hi, default)
+    lo, lo_why = (rule_lo, "the configuration's rules") if rule_lo > op_lo else (op_lo, "the operator range")
+    hi, hi_why = (rule_hi, "the configuration's rules") if rule_hi < op_hi else (op_hi, "the operator range")
     if path in _BUS_BOUNDS:
         bus_lo, bus_hi, what = _BUS_BOUNDS[path](bus)
         if bus_lo > lo:
             lo, lo_why = bus_lo, f"the DBC {what} range"
         if bus_hi < hi:
             hi, hi_why = bus_hi, f"the DBC {what} range"
-    spec = ParamSpec(decl.name, default, lo, hi, decl.unit, decl.description, path)
+    spec = ParamSpec(entry.name, default, lo, hi, entry.meta.unit, entry.meta.desc, path)
     return _Bounds(spec, lo_why, hi_why)
 
 
-def _decl(name: str) -> _Decl:
-    decl = _BY_NAME.get(name)
-    if decl is None:
+def _entry(name: str) -> _Entry:
+    entry = _BY_NAME.get(name)
+    if entry is None:
         raise ParamError(f"unknown parameter {name!r}")
-    return decl
+    return entry
 
 
 def _bounds_for(config: CoreConfig, name: str, bus: BusLimits) -> _Bounds:
-    decl = _decl(name)
-    path = _path(decl, config)
-    return _bounds(decl, path, _get(config, path.rsplit(".", 1)[0]), bus)
+    return _bounds(_entry(name), config, bus)
 
 
 def _fmt(value: float, unit: str) -> str:
     return f"{value:g} {unit}" if unit else f"{value:g}"
+
+
+# --- the reference page ---------------------------------------------------------------------------------
+
+_PAGE_HEAD = """# Parameters
+
+Generated by `python -m onboard.app.params_doc > docs/parameters.md` from the declarations in the code; do
+not edit it by hand (`tests/unit/params/test_params_doc.py` fails when it is out of date).
+
+Every setting below is declared once, beside its default, in the dataclass of its `onboard.toml` table
+(`auv_common.config.param`: unit, range, description, MAVLink name); the configuration loader, the MAVLink
+parameter table and this page read that declaration.
+
+- **Config key**: the key in `onboard/config/onboard.toml` (or `--set KEY=VALUE`); a value outside the range
+  stops start-up with one line.
+- **MAVLink**: the parameter a ground station reads and sets (PARAM_SET, float32); a PARAM_SET outside the
+  range is refused with the reason in a STATUSTEXT and the value in force. The gains are those of the active
+  profile (`control.profile`).
+- **Range**: closed; for a MAVLink parameter, the range the vehicle serves with the defaults below. Notes:
+  *operator range*, a ground station may set no further (a configured value beyond it widens it); *DBC*, the
+  command frame's signal range narrows it; a rule on other values of the table is named.
+- **Default**: the dataclass's default (the packaged `onboard.toml` may set another).
+"""
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def _range_cell(lo: float, hi: float, notes: list[str]) -> str:
+    if math.isinf(hi):
+        text = f">= {lo:g}"
+    elif math.isinf(lo):
+        text = f"<= {hi:g}"
+    else:
+        text = f"[{lo:g}, {hi:g}]"
+    return f"{text} ({'; '.join(notes)})" if notes else text
+
+
+def _notes(meta: Param, b: _Bounds | None) -> list[str]:
+    """Where each end of a range comes from, where it is not a plain number of the declaration."""
+    ends = []
+    for end, bound, why in (("min", meta.min, b and b.lo_why), ("max", meta.max, b and b.hi_why)):
+        if isinstance(bound, Bound):
+            ends.append((end, bound.why))
+        elif why and why != "the configuration's rules":
+            ends.append((end, why.removeprefix("the ")))
+    if len(ends) == 2 and ends[0][1] == ends[1][1]:
+        return [ends[0][1]]
+    return [f"{end}: {why}" for end, why in ends]
+
+
+def parameters_markdown(bus_limits: BusLimits) -> str:
+    """``docs/parameters.md``: every declared setting of the parameter table's sections, one Markdown table
+    per section (MAVLink name, config key, unit, range, default, description), with the defaults of
+    :class:`CoreConfig` and the DBC ranges ``bus_limits``."""
+    defaults = CoreConfig()
+    profiles: tuple[ProfileName, ...] = ("improved", "paper")
+    configs = {
+        p: dataclasses.replace(defaults, control=dataclasses.replace(defaults.control, profile=p))
+        for p in profiles
+    }
+    out = [_PAGE_HEAD]
+    for section in SECTIONS:
+        config = configs[defaults.control.profile]
+        path = section.format(profile=defaults.control.profile)
+        leaf = _get(config, path)
+        if "{profile}" in section:
+            title = " and ".join(f"`[{section.format(profile=p)}]`" for p in profiles)
+            title += ": the PD gains of the active profile"
+        else:
+            title = f"`[{path}]`"
+        out += [
+            f"## {title}",
+            "",
+            "| MAVLink | Config key | Unit | Range | Default | Description |",
+            "|---|---|---|---|---|---|",
+        ]
+        for key, meta in declared(type(leaf)):
+            b = _bounds(_BY_NAME[meta.mavlink], config, bus_limits) if meta.mavlink is not None else None
+            lo, hi = (b.spec.min, b.spec.max) if b is not None else declared_bounds(leaf, key)
+            if "{profile}" in section:
+                values = {p: getattr(_get(configs[p], section.format(profile=p)), key) for p in profiles}
+                default = (
+                    " / ".join(f"{v:g} ({p})" for p, v in values.items())
+                    if len(set(values.values())) > 1
+                    else f"{values[profiles[0]]:g}"
+                )
+            else:
+                default = f"{getattr(leaf, key):g}"
+            row = (
+                f"`{meta.mavlink}`" if meta.mavlink else "-",
+                f"`{section.replace('{profile}', '<profile>')}.{key}`",
+                meta.unit or "-",
+                _range_cell(lo, hi, _notes(meta, b)),
+                default,
+                meta.desc,
+            )
+            out.append("| " + " | ".join(_cell(c) for c in row) + " |")
+        out.append("")
+    return "\n".join(out)
 
 
 # --- the API ----------------------------------------------------------------------------------------
@@ -374,12 +398,12 @@ def param_table(config: CoreConfig, bus_limits: BusLimits) -> tuple[ParamSpec, .
     """Every parameter, with the values of ``config`` as defaults. Raises :class:`ConfigError` if the
     configured limits themselves exceed the DBC ranges (:func:`check_against_bus`)."""
     check_against_bus(config, bus_limits)
-    return tuple(_bounds_for(config, d.name, bus_limits).spec for d in _DECLS)
+    return tuple(_bounds(e, config, bus_limits).spec for e in _ENTRIES)
 
 
 def param_path(config: CoreConfig, name: str) -> str:
     """The configuration key parameter ``name`` sets (gains: those of the active profile)."""
-    return _path(_decl(name), config)
+    return _path(_entry(name), config)
 
 
 def param_value(config: CoreConfig, name: str) -> float:
@@ -447,4 +471,5 @@ __all__ = [
     "param_path",
     "param_table",
     "param_value",
+    "parameters_markdown",
 ]

@@ -14,7 +14,7 @@ import enum
 import math
 from dataclasses import dataclass, field
 
-from auv_common.config import require
+from auv_common.config import Bound, check_declared, param
 from onboard.protocol.conventions import stern_combine, stern_split
 
 
@@ -72,41 +72,46 @@ FIN_LIMIT_MIN_DEG = 1.0
 #: The smallest propeller speed range (max - min) that means a propeller, rev/s: below 1 rps (100 DBC
 #: steps) the vehicle has no steerage way; a subnormal maximum is a stopped propeller that looks armed.
 PROPELLER_SPAN_MIN_RPS = 1.0
+_PROPELLER_MAX_MIN = Bound(
+    lambda limits: limits.propeller_min_rps + PROPELLER_SPAN_MIN_RPS,
+    f"propeller_min_rps + {PROPELLER_SPAN_MIN_RPS:g}",
+)
 
 
 @dataclass(frozen=True)
 class ActuatorLimits:
     """The ``[control.limits]`` table: angle, speed and rate limits. A rate limit of 0 disables it.
 
-    - ``rudder_limit_deg``, ``stern_limit_deg``: |angle| limits of the rudder and of each stern plane, deg,
-      in [:data:`FIN_LIMIT_MIN_DEG`, 45].
-    - ``propeller_min_rps``, ``propeller_max_rps``: propeller speed range, rev/s (max at least
-      :data:`PROPELLER_SPAN_MIN_RPS` above min).
-    - ``fin_rate_limit_degps``: max fin angle rate, deg/s; ``propeller_rate_limit_rps_per_s``: rev/s^2.
+    Each key is declared once below (unit, range, description, MAVLink name; ``docs/parameters.md``); the
+    DBC's command ranges bound the angle and speed limits further (``onboard.core.params``).
     """
 
-    rudder_limit_deg: float = 20.0
-    stern_limit_deg: float = 20.0
-    propeller_min_rps: float = 0.0
-    propeller_max_rps: float = 30.0
-    fin_rate_limit_degps: float = 60.0
-    propeller_rate_limit_rps_per_s: float = 20.0
+    rudder_limit_deg: float = param(
+        20.0, unit="deg", min=FIN_LIMIT_MIN_DEG, max=45.0, mavlink="LIM_RUDDER_DEG", desc="rudder angle limit"
+    )
+    stern_limit_deg: float = param(
+        20.0, unit="deg", min=FIN_LIMIT_MIN_DEG, max=45.0, mavlink="LIM_STERN_DEG",
+        desc="stern-plane angle limit (each plane)",
+    )  # fmt: skip
+    propeller_min_rps: float = param(0.0, unit="rps", min=0.0, desc="propeller speed, lowest command")
+    propeller_max_rps: float = param(
+        30.0, unit="rps", min=_PROPELLER_MAX_MIN, operator=(0.0, 100.0), mavlink="LIM_RPS_MAX",
+        desc="propeller speed limit",
+    )  # fmt: skip
+    fin_rate_limit_degps: float = param(
+        60.0, unit="deg/s", min=0.0, operator=(0.0, 360.0), mavlink="LIM_FIN_RATE_DPS",
+        desc="fin rate limit (0 = off)",
+    )  # fmt: skip
+    propeller_rate_limit_rps_per_s: float = param(
+        20.0, unit="rps/s", min=0.0, operator=(0.0, 200.0), mavlink="LIM_RPS_RATE",
+        desc="propeller acceleration limit (0 = off)",
+    )  # fmt: skip
     rudder_limit_rad: float = field(init=False, repr=False)
     stern_limit_rad: float = field(init=False, repr=False)
     fin_rate_limit_radps: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        lo = FIN_LIMIT_MIN_DEG
-        require(lo <= self.rudder_limit_deg <= 45.0, f"rudder_limit_deg must be in [{lo:g}, 45] deg")
-        require(lo <= self.stern_limit_deg <= 45.0, f"stern_limit_deg must be in [{lo:g}, 45] deg")
-        require(self.propeller_min_rps >= 0.0, "propeller_min_rps must be >= 0")
-        least = self.propeller_min_rps + PROPELLER_SPAN_MIN_RPS
-        require(
-            self.propeller_max_rps >= least,
-            f"propeller_max_rps must be >= {least:g} rps (propeller_min_rps + {PROPELLER_SPAN_MIN_RPS:g})",
-        )
-        require(self.fin_rate_limit_degps >= 0.0, "fin_rate_limit_degps must be >= 0 (0 = off)")
-        require(self.propeller_rate_limit_rps_per_s >= 0.0, "propeller_rate_limit_rps_per_s must be >= 0")
+        check_declared(self)
         object.__setattr__(self, "rudder_limit_rad", math.radians(self.rudder_limit_deg))
         object.__setattr__(self, "stern_limit_rad", math.radians(self.stern_limit_deg))
         object.__setattr__(self, "fin_rate_limit_radps", math.radians(self.fin_rate_limit_degps))

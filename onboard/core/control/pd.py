@@ -49,9 +49,9 @@ import bisect
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
-from auv_common.config import require
+from auv_common.config import check_declared, param, require
 from onboard.core.control.actuators import ActuatorCommand, ActuatorFlag, ActuatorLimits, saturate
 from onboard.core.guidance.guidance import GuidanceReference
 from onboard.core.nav.types import NavState
@@ -62,38 +62,55 @@ DepthMode = Literal["paper", "cascade"]
 ProfileName = Literal["paper", "improved"]
 
 
+def _gain(mavlink: str, unit: str, desc: str) -> Any:
+    """A PD gain of eqs. 8-10: default 0; a PARAM_SET beyond +-100 is refused (a configured gain beyond
+    widens the range)."""
+    return param(0.0, unit=unit, operator=(-100.0, 100.0), mavlink=mavlink, desc=desc)
+
+
 @dataclass(frozen=True)
 class PdGains:
     """The 16 gains of eqs. 8-10 (named as in the paper) and the extras of the ``improved`` profile.
 
-    Units: see the module docstring (errors m / rad, outputs rps / rad). Feed-forward:
-    ``feedforward`` turns on the propeller speed map (``[control]``'s, :class:`ControlParams`) and the
-    curvature rudder ``rudder_per_curvature_radm`` (rad * m);
-    ``roll_kp`` (rad/rad), ``roll_kd`` (rad/(rad/s)); ``derivative`` and ``derivative_tau_s`` (s).
+    Each operator parameter is declared once below (unit, range, description, MAVLink name;
+    ``docs/parameters.md``). Feed-forward: ``feedforward`` turns on the propeller speed map (``[control]``'s,
+    :class:`ControlParams`) and the curvature rudder ``rudder_per_curvature_radm``.
     """
 
-    Kp1: float = 0.0
-    KD1: float = 0.0
-    Kp2: float = 0.0
-    KD2: float = 0.0
-    Kp3: float = 0.0
-    KD3: float = 0.0
-    Kp4: float = 0.0
-    KD4: float = 0.0
-    Kp5: float = 0.0
-    KD5: float = 0.0
-    Kp6: float = 0.0
-    KD6: float = 0.0
-    Kp7: float = 0.0
-    KD7: float = 0.0
-    Kp8: float = 0.0
-    KD8: float = 0.0
+    Kp1: float = _gain("PD_KP1", "rps/m", "PD rps P gain on e_x")
+    KD1: float = _gain("PD_KD1", "rps.s/m", "PD rps D gain on e_x")
+    Kp2: float = _gain("PD_KP2", "rps/m", "PD rps P gain on e_y")
+    KD2: float = _gain("PD_KD2", "rps.s/m", "PD rps D gain on e_y")
+    Kp3: float = _gain("PD_KP3", "rps/m", "PD rps P gain on e_z")
+    KD3: float = _gain("PD_KD3", "rps.s/m", "PD rps D gain on e_z")
+    Kp4: float = _gain("PD_KP4", "rad/m", "PD rudder P gain on e_x")
+    KD4: float = _gain("PD_KD4", "rad.s/m", "PD rudder D gain on e_x")
+    Kp5: float = _gain("PD_KP5", "rad/m", "PD rudder P gain on e_y")
+    KD5: float = _gain("PD_KD5", "rad.s/m", "PD rudder D gain on e_y")
+    Kp6: float = _gain("PD_KP6", "rad/rad", "PD rudder P gain on e_psi")
+    KD6: float = _gain("PD_KD6", "rad.s/rad", "PD rudder D gain on e_psi")
+    Kp7: float = _gain("PD_KP7", "rad/m", "PD stern P gain on e_z")
+    KD7: float = _gain("PD_KD7", "rad.s/m", "PD stern D gain on e_z")
+    Kp8: float = _gain("PD_KP8", "rad/rad", "PD stern P gain on e_theta")
+    KD8: float = _gain("PD_KD8", "rad.s/rad", "PD stern D gain on e_theta")
     feedforward: bool = False
-    rudder_per_curvature_radm: float = 0.0
-    roll_kp: float = 0.0
-    roll_kd: float = 0.0
+    rudder_per_curvature_radm: float = param(
+        0.0, unit="rad.m", min=0.0, operator=(0.0, 10.0), mavlink="PD_RUD_FF_RADM",
+        desc="rudder feed-forward per path curvature",
+    )  # fmt: skip
+    roll_kp: float = param(
+        0.0, unit="rad/rad", operator=(-10.0, 10.0), mavlink="PD_ROLL_KP",
+        desc="roll damping P gain (split stern)",
+    )  # fmt: skip
+    roll_kd: float = param(
+        0.0, unit="rad.s/rad", operator=(-10.0, 10.0), mavlink="PD_ROLL_KD",
+        desc="roll damping D gain (split stern)",
+    )  # fmt: skip
     derivative: DerivativeSource = "difference"
-    derivative_tau_s: float = 0.0
+    derivative_tau_s: float = param(
+        0.0, unit="s", min=0.0, operator=(0.0, 10.0), mavlink="PD_DTAU_S",
+        desc="derivative low-pass time constant",
+    )  # fmt: skip
     # The depth channel: "paper" = eq. 10 as written; "cascade" = depth -> pitch command (limited to
     # +-pitch_limit_deg, with an integral that stops while the command is limited: anti-windup) -> stern
     # through Kp8 / KD8 on the pitch-command error and the pitch rate. Kp7 / KD7 are unused in "cascade".
@@ -110,8 +127,7 @@ class PdGains:
     schedule_max_scale: float = 2.5
 
     def __post_init__(self) -> None:
-        require(self.derivative_tau_s >= 0.0, "derivative_tau_s must be >= 0")
-        require(self.rudder_per_curvature_radm >= 0.0, "rudder_per_curvature_radm must be >= 0")
+        check_declared(self)
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
-from auv_common.config import require
+from auv_common.config import Bound, check_declared, param, require
 from onboard.core.guidance.path_frame import (
     depth_rate_per_m,
     path_frame,
@@ -61,6 +61,10 @@ SPEED_MIN_MPS = 0.1
 #: The shortest LOS lookahead that means one, m: the LOS heading is atan(e_y / Delta), and the estimate's
 #: cross-track noise is decimetres, so below 0.5 m it swings through +-90 deg on the noise.
 LOOKAHEAD_MIN_M = 0.5
+#: The path speed's minimum: :data:`SPEED_MIN_MPS`, or the steerage way ``min_water_speed_mps`` if larger.
+_SPEED_MIN = Bound(
+    lambda g: max(SPEED_MIN_MPS, g.min_water_speed_mps), f"min_water_speed_mps where above {SPEED_MIN_MPS:g}"
+)
 
 
 @dataclass(frozen=True)
@@ -68,8 +72,8 @@ class GuidanceParams:
     """The ``[guidance]`` table. Every key is optional.
 
     - ``mode``: ``"track"`` (paper), ``"los"`` or ``"ilos"``.
-    - ``speed_mps``: desired (uniform) speed U along the path, m/s (>= :data:`SPEED_MIN_MPS`).
-    - ``lookahead_m``: LOS lookahead distance Delta, m (>= :data:`LOOKAHEAD_MIN_M`); ``lookahead_time_s``:
+    - ``speed_mps``: desired (uniform) speed U along the path.
+    - ``lookahead_m``: LOS lookahead distance Delta; ``lookahead_time_s``:
       with > 0, Fossen's speed-dependent lookahead Delta = max(``lookahead_m``, U * this) with U the speed
       over ground (s), so a faster vehicle (a following current) converges on the path over the same time,
       not distance.
@@ -108,54 +112,58 @@ class GuidanceParams:
     """
 
     mode: GuidanceMode = "track"
-    speed_mps: float = 1.0
-    lookahead_m: float = 3.0
+    speed_mps: float = param(
+        1.0, unit="m/s", min=_SPEED_MIN, operator=(0.0, 5.0), mavlink="GDE_SPEED_MPS",
+        desc="speed along the path",
+    )  # fmt: skip
+    lookahead_m: float = param(
+        3.0, unit="m", min=LOOKAHEAD_MIN_M, operator=(0.0, 50.0), mavlink="GDE_LOOKAHD_M",
+        desc="LOS lookahead distance",
+    )  # fmt: skip
     lookahead_time_s: float = 0.0
-    ilos_gain: float = 0.3
+    ilos_gain: float = param(
+        0.3, min=0.0, operator=(0.0, 10.0), mavlink="GDE_ILOS_GAIN", desc="ILOS integral gain"
+    )
     ilos_max_correction_deg: float = 30.0
     arrival_position_tol_m: float = 0.25
     arrival_yaw_tol_deg: float = 10.0
     search_back_m: float = 2.0
     search_ahead_m: float = 10.0
-    reference_accel_mps2: float = 0.0
+    reference_accel_mps2: float = param(
+        0.0, unit="m/s^2", min=0.0, operator=(0.0, 5.0), mavlink="GDE_ACCEL_MPS2",
+        desc="track reference acceleration",
+    )  # fmt: skip
     lateral: Literal["reference", "path"] = "reference"
-    curvature_preview_s: float = 0.0
-    cross_error_limit_m: float = 0.0
+    curvature_preview_s: float = param(
+        0.0, unit="s", min=0.0, operator=(0.0, 10.0), mavlink="GDE_PREVIEW_S",
+        desc="curvature feed-forward preview",
+    )  # fmt: skip
+    cross_error_limit_m: float = param(
+        0.0, unit="m", min=0.0, operator=(0.0, 50.0), mavlink="GDE_XERR_LIM_M",
+        desc="cross-track error limit (0 = none)",
+    )  # fmt: skip
     speed_loop_limit_m: float = 0.0
     steer: Literal["heading", "course"] = "heading"
     crab_min_speed_mps: float = 0.3
     crab_max_deg: float = 40.0
-    min_water_speed_mps: float = 0.0
+    min_water_speed_mps: float = param(
+        0.0, unit="m/s", min=0.0, desc="steerage way: least speed through the water (0 = off)"
+    )
     reference_stops_at_end: bool = False
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
     crab_max_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        require(
-            self.speed_mps >= SPEED_MIN_MPS,
-            f"speed_mps must be >= {SPEED_MIN_MPS:g} m/s, got {self.speed_mps:g}",
-        )
-        require(
-            self.lookahead_m >= LOOKAHEAD_MIN_M,
-            f"lookahead_m must be >= {LOOKAHEAD_MIN_M:g} m, got {self.lookahead_m:g}",
-        )
+        check_declared(self)
         require(self.lookahead_time_s >= 0.0, f"lookahead_time_s must be >= 0, got {self.lookahead_time_s}")
-        require(self.ilos_gain >= 0.0, f"ilos_gain must be >= 0, got {self.ilos_gain}")
         require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")
         require(self.arrival_position_tol_m > 0.0, "arrival_position_tol_m must be > 0")
         require(0.0 < self.arrival_yaw_tol_deg <= 180.0, "arrival_yaw_tol_deg must be in (0, 180]")
         require(self.search_back_m >= 0.0 and self.search_ahead_m > 0.0, "search window must be positive")
-        require(self.reference_accel_mps2 >= 0.0, "reference_accel_mps2 must be >= 0")
-        require(self.curvature_preview_s >= 0.0, "curvature_preview_s must be >= 0")
-        require(self.cross_error_limit_m >= 0.0, "cross_error_limit_m must be >= 0")
         require(self.speed_loop_limit_m >= 0.0, "speed_loop_limit_m must be >= 0")
         require(self.crab_min_speed_mps > 0.0, "crab_min_speed_mps must be > 0")
         require(0.0 <= self.crab_max_deg < 90.0, "crab_max_deg must be in [0, 90)")
-        require(
-            0.0 <= self.min_water_speed_mps <= self.speed_mps,
-            f"min_water_speed_mps must be in [0, speed_mps], got {self.min_water_speed_mps}",
-        )
         object.__setattr__(self, "crab_max_rad", math.radians(self.crab_max_deg))
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))

@@ -17,6 +17,7 @@ import itertools
 import math
 from dataclasses import dataclass
 
+from auv_common.config import Bound, check_declared, param
 from onboard.core.planner.errors import PlannerConfigError
 
 # A placeholder steady-turn table (radius m -> rudder deg) until the simulator's steady-turn run fills it; it
@@ -46,20 +47,33 @@ def _finite(value: float) -> bool:
     return isinstance(value, int | float) and math.isfinite(value)
 
 
+def _weight_min(key: str) -> Bound:
+    """A cost weight's minimum: 0 while another weight carries the scale, else :data:`WEIGHT_SCALE_MIN`."""
+    others = tuple(k for k in ("weight_distance", "weight_yaw", "weight_rudder") if k != key)
+    return Bound(
+        lambda c: 0.0 if max(getattr(c, k) for k in others) >= WEIGHT_SCALE_MIN else WEIGHT_SCALE_MIN,
+        f"0 only while one of the other cost weights is >= {WEIGHT_SCALE_MIN:g}",
+    )
+
+
+def _config_error(key: str, message: str) -> PlannerConfigError:
+    return PlannerConfigError("radius" if key == "turning_radius_m" else "config", message)
+
+
 @dataclass(frozen=True)
 class PlannerConfig:
     """Parameters of the homing path planner (paper section 3).
 
+    The declared keys (unit, range, description, MAVLink name) are in ``docs/parameters.md``. Why:
+
     Attributes:
-        turning_radius_m: minimum turning radius r_min of the vehicle (m), >= :data:`TURNING_RADIUS_MIN_M`.
-        obstacle_margin_m: clearance added to every obstacle radius (m), >= 0; the inflated radius is
-            ``max(R + margin, r_min)`` so the vehicle can fly an obstacle's boundary as an arc.
-        weight_distance: Wd of eq. (2) (1/m), >= 0.
-        weight_yaw: Wpsi of eq. (2), per radian of cumulative |yaw change| (1/rad), >= 0.
-        weight_rudder: WdR of eq. (2), per rad*m of cumulative rudder (1/(rad m)), >= 0. The largest of the
-            three is >= :data:`WEIGHT_SCALE_MIN`.
-        max_depth_slope: largest |d depth / d s| along the path (dimensionless, tan of the flight-path
-            angle), >= :data:`DEPTH_SLOPE_MIN`.
+        turning_radius_m: minimum turning radius r_min of the vehicle.
+        obstacle_margin_m: the inflated radius is ``max(R + margin, r_min)`` so the vehicle can fly an
+            obstacle's boundary as an arc.
+        weight_distance, weight_yaw, weight_rudder: Wd, Wpsi, WdR of eq. (2), per metre, per radian of
+            cumulative |yaw change|, per rad*m of cumulative rudder; the largest of the three is >=
+            :data:`WEIGHT_SCALE_MIN`.
+        max_depth_slope: largest |d depth / d s| along the path (tan of the flight-path angle).
         rudder_map_radius_m: radii of the steady-turn table (m), strictly increasing, > 0.
         rudder_map_rudder_deg: rudder magnitude for each radius (deg), >= 0.
         goal_run_in_m: a goal with a heading is approached along a straight of this length ending at it
@@ -84,30 +98,44 @@ class PlannerConfig:
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
 
-    turning_radius_m: float = 3.0
-    obstacle_margin_m: float = 1.0
-    weight_distance: float = 1.0
-    weight_yaw: float = 0.0
-    weight_rudder: float = 0.0
-    max_depth_slope: float = 0.25
+    turning_radius_m: float = param(
+        3.0, unit="m", min=TURNING_RADIUS_MIN_M, operator=(0.0, 100.0), mavlink="PLN_R_MIN_M",
+        desc="planning turning radius",
+    )  # fmt: skip
+    obstacle_margin_m: float = param(
+        1.0, unit="m", min=0.0, operator=(0.0, 50.0), mavlink="PLN_MARGIN_M", desc="obstacle safety margin"
+    )
+    weight_distance: float = param(
+        1.0, unit="1/m", min=_weight_min("weight_distance"), operator=(0.0, 1000.0), mavlink="PLN_W_D",
+        desc="planner weight on distance",
+    )  # fmt: skip
+    weight_yaw: float = param(
+        0.0, unit="1/rad", min=_weight_min("weight_yaw"), operator=(0.0, 1000.0), mavlink="PLN_W_PSI",
+        desc="planner weight on cumulative yaw change",
+    )  # fmt: skip
+    weight_rudder: float = param(
+        0.0, unit="1/(rad.m)", min=_weight_min("weight_rudder"), operator=(0.0, 1000.0), mavlink="PLN_W_DR",
+        desc="planner weight on cumulative rudder",
+    )  # fmt: skip
+    max_depth_slope: float = param(
+        0.25, min=DEPTH_SLOPE_MIN, operator=(0.0, 2.0), mavlink="PLN_MAX_SLOPE",
+        desc="largest depth change per metre of path",
+    )  # fmt: skip
     rudder_map_radius_m: tuple[float, ...] = _DEFAULT_MAP_RADIUS_M
     rudder_map_rudder_deg: tuple[float, ...] = _DEFAULT_MAP_RUDDER_DEG
-    goal_run_in_m: float = 0.0
-    start_run_up_m: float = 0.0
+    goal_run_in_m: float = param(
+        0.0, unit="m", min=0.0, desc="straight run-in to a goal with a heading (0 = none)"
+    )
+    start_run_up_m: float = param(
+        0.0, unit="m", min=0.0, desc="straight run-up along the start heading (0 = none)"
+    )
     min_turning_radius_m: float = 0.0
     min_obstacle_margin_m: float | None = None
     current_aware: bool = False
     csc_only: bool = False
 
     def __post_init__(self) -> None:
-        r = self.turning_radius_m
-        _check(
-            _finite(r) and r >= TURNING_RADIUS_MIN_M,
-            "radius",
-            f"turning_radius_m must be >= {TURNING_RADIUS_MIN_M:g} m and finite, got {r!r}",
-        )
-        m = self.obstacle_margin_m
-        _check(_finite(m) and m >= 0.0, "config", f"obstacle_margin_m must be >= 0 and finite, got {m!r}")
+        check_declared(self, _config_error)
         t = self.min_turning_radius_m
         _check(
             _finite(t) and (t == 0.0 or t >= TURNING_RADIUS_MIN_M),
@@ -119,24 +147,6 @@ class PlannerConfig:
             mm is None or (_finite(mm) and mm >= 0.0),
             "config",
             f"min_obstacle_margin_m must be >= 0 and finite, got {mm!r}",
-        )
-        g = self.goal_run_in_m
-        _check(_finite(g) and g >= 0.0, "config", f"goal_run_in_m must be >= 0 and finite, got {g!r}")
-        u = self.start_run_up_m
-        _check(_finite(u) and u >= 0.0, "config", f"start_run_up_m must be >= 0 and finite, got {u!r}")
-        weights = (self.weight_distance, self.weight_yaw, self.weight_rudder)
-        for name, w in zip(("weight_distance", "weight_yaw", "weight_rudder"), weights, strict=True):
-            _check(_finite(w) and w >= 0.0, "config", f"{name} must be >= 0 and finite, got {w!r}")
-        _check(
-            max(weights) >= WEIGHT_SCALE_MIN,
-            "config",
-            f"at least one of the cost weights must be >= {WEIGHT_SCALE_MIN:g}",
-        )
-        s = self.max_depth_slope
-        _check(
-            _finite(s) and s >= DEPTH_SLOPE_MIN,
-            "config",
-            f"max_depth_slope must be >= {DEPTH_SLOPE_MIN:g} and finite, got {s!r}",
         )
         radii, rudders = self.rudder_map_radius_m, self.rudder_map_rudder_deg
         _check(len(radii) >= 1, "config", "rudder_map_radius_m must have at least one entry")

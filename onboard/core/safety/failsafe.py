@@ -3,8 +3,9 @@
 Checks (thresholds in the ``[failsafe]`` table, :class:`FailsafeParams`):
 
 - ``NAV_STALE``: the navigation solution is unusable: a blocking :class:`~onboard.core.nav.types.NavCondition`
-  (position invalid, attitude or depth missing/stale), attitude or depth older than ``nav_timeout_s``, or a
-  non-finite position/depth.
+  (position invalid, attitude or depth missing, or stale: older than ``nav_timeout_s``, FS_NAV_TMO_S, the one
+  staleness timeout, which the estimator applies: :meth:`onboard.core.nav.estimator.NavParams.with_stale_after`),
+  or a non-finite position/depth.
 - ``DEPTH_LIMIT``: depth below ``max_depth_m``.
 - ``AREA_BOUND``: horizontal position outside the operating rectangle [area_x_min_m, area_x_max_m] x
   [area_y_min_m, area_y_max_m] (NED, m).
@@ -27,8 +28,9 @@ import enum
 import math
 from dataclasses import dataclass, field
 
-from auv_common.config import require
+from auv_common.config import check_declared, param, require
 from onboard.core.control.actuators import ActuatorCommand
+from onboard.core.nav.estimator import NAV_TIMEOUT_DEFAULT_S
 from onboard.core.nav.types import NavState
 
 #: The shortest navigation timeout that means one, s: the AHRS and the depth sensor send at 20 Hz
@@ -44,39 +46,38 @@ MAX_DEPTH_MIN_M = 1.0
 class FailsafeParams:
     """The ``[failsafe]`` table. Every key is optional.
 
-    - ``nav_timeout_s``: max age of attitude and depth, s (>= :data:`NAV_TIMEOUT_MIN_S`).
-    - ``max_depth_m``: depth limit, m (>= :data:`MAX_DEPTH_MIN_M`).
+    - ``nav_timeout_s``: max age of attitude and depth (the one staleness timeout: the estimator marks them
+      stale after it, and stale navigation aborts).
     - ``area_x_min_m``, ``area_x_max_m``, ``area_y_min_m``, ``area_y_max_m``: operating rectangle, NED m.
-    - ``max_loop_late_s``: the loop behind its schedule continuously for longer than this aborts, s.
-    - ``abort_stern_deg``: nose-up stern deflection of the abort command, deg (> 0; sent as negative stern).
+    - ``abort_stern_deg``: sent as negative stern.
     """
 
-    nav_timeout_s: float = 1.0
-    max_depth_m: float = 10.0
+    nav_timeout_s: float = param(
+        NAV_TIMEOUT_DEFAULT_S, unit="s", min=NAV_TIMEOUT_MIN_S, operator=(0.0, 10.0),
+        mavlink="FS_NAV_TMO_S", desc="attitude or depth older than this is stale navigation: ABORT, START waits",
+    )  # fmt: skip
+    max_depth_m: float = param(
+        10.0, unit="m", min=MAX_DEPTH_MIN_M, operator=(0.0, 100.0), mavlink="FS_MAX_DEPTH_M",
+        desc="depth failsafe limit",
+    )  # fmt: skip
     area_x_min_m: float = -500.0
     area_x_max_m: float = 500.0
     area_y_min_m: float = -500.0
     area_y_max_m: float = 500.0
-    max_loop_late_s: float = 0.5
-    abort_stern_deg: float = 15.0
+    max_loop_late_s: float = param(
+        0.5, unit="s", min=0.01, max=10.0,
+        desc="the loop behind its schedule continuously for longer than this aborts",
+    )  # fmt: skip
+    abort_stern_deg: float = param(
+        15.0, unit="deg", min=0.0, max=45.0, mavlink="FS_ABORT_STN_DEG",
+        desc="nose-up stern of the abort command",
+    )  # fmt: skip
     abort_stern_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        require(
-            self.nav_timeout_s >= NAV_TIMEOUT_MIN_S,
-            f"nav_timeout_s must be >= {NAV_TIMEOUT_MIN_S:g} s, got {self.nav_timeout_s:g}",
-        )
-        require(
-            self.max_depth_m >= MAX_DEPTH_MIN_M,
-            f"max_depth_m must be >= {MAX_DEPTH_MIN_M:g} m, got {self.max_depth_m:g}",
-        )
+        check_declared(self)
         require(self.area_x_min_m < self.area_x_max_m, "need area_x_min_m < area_x_max_m")
         require(self.area_y_min_m < self.area_y_max_m, "need area_y_min_m < area_y_max_m")
-        require(
-            0.01 <= self.max_loop_late_s <= 10.0,
-            f"max_loop_late_s must be in [0.01, 10] s, got {self.max_loop_late_s:g}",
-        )
-        require(0.0 <= self.abort_stern_deg <= 45.0, "abort_stern_deg must be in [0, 45]")
         object.__setattr__(self, "abort_stern_rad", math.radians(self.abort_stern_deg))
 
 
@@ -126,7 +127,7 @@ def check(
 
     isfinite = math.isfinite
     finite = isfinite(nav.x_m) and isfinite(nav.y_m) and isfinite(nav.depth_m)
-    if not nav.valid or not finite or max(nav.attitude_age_s, nav.depth_age_s) > params.nav_timeout_s:
+    if not nav.valid or not finite:  # stale: the estimator's conditions, with params.nav_timeout_s
         flags |= _NAV_STALE
         reasons.append(
             f"navigation stale (conditions {nav.conditions.name or 0}, attitude age "

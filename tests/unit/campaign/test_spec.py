@@ -522,7 +522,7 @@ BAD: list[tuple[str, Any, str]] = [
     (
         "sweep/onboard",
         [{"guidance.speed_mps": -1}],
-        "sweep.onboard[0].guidance: speed_mps must be >= 0.1 m/s",
+        "sweep.onboard[0].guidance: speed_mps must be >= 0.8 m/s (min_water_speed_mps where above 0.1)",
     ),
     (
         "sweep/onboard",

@@ -528,7 +528,7 @@ AREA = [
 def test_onboard_accepts_is_the_spec_judge_without_a_key_in_front() -> None:
     assert tune.onboard_accepts(["control.improved.Kp5=-0.5"]) is None
     assert tune.onboard_accepts(["control.improved.rudder_per_curvature_radm=-1"]) == (
-        "control.improved: rudder_per_curvature_radm must be >= 0"
+        "control.improved: rudder_per_curvature_radm must be >= 0 rad.m, got -1"
     )
     assert (
         tune.onboard_accepts(['control.improved.Kp5="a"'])

@@ -1,0 +1,126 @@
+"""Each parameter declared once (issue 22, item 3): the declaration beside the default is what the config
+loader checks, what the MAVLink table serves and what ``docs/parameters.md`` shows."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import subprocess
+import sys
+from typing import Any
+
+import pytest
+
+from auv_common.config import ConfigError, declared, declared_bounds
+from onboard.app.config import config_from_dict
+from onboard.app.params_doc import PAGE_PATH, page
+from onboard.core.config import CoreConfig
+from onboard.core.control.pd import ControlParams
+from onboard.core.params import PARAM_NAMES, SECTIONS, BusLimits, param_table
+from onboard.protocol.codec import command_ranges
+
+BUS = BusLimits.from_ranges(command_ranges())
+
+
+def _tables(node: Any, path: str = "") -> list[tuple[str, Any]]:
+    """Every dataclass table under ``node`` with its dotted path (``node`` itself included)."""
+    out = [(path, node)]
+    for f in dataclasses.fields(node):
+        value = getattr(node, f.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out += _tables(value, f"{path}.{f.name}" if path else f.name)
+    return out
+
+
+def test_the_committed_parameter_page_is_the_generated_one() -> None:
+    """GIVEN the declarations in the code WHEN the page is generated THEN docs/parameters.md is that text
+    (regenerate: ``python -m onboard.app.params_doc > docs/parameters.md``)."""
+    assert PAGE_PATH.is_file(), (
+        f"{PAGE_PATH} is missing: python -m onboard.app.params_doc > docs/parameters.md"
+    )
+    assert PAGE_PATH.read_text(encoding="utf-8") == page(), (
+        "docs/parameters.md is out of date: python -m onboard.app.params_doc > docs/parameters.md"
+    )
+
+
+def test_the_generator_prints_the_page() -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "onboard.app.params_doc"],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=120,
+    )
+    assert run.stdout == page()
+
+
+def test_the_page_lists_every_parameter_once_with_its_key_unit_and_range() -> None:
+    text = page()
+    assert "<" not in text.replace("<profile>", "").replace("<=", "")  # plain Markdown, no HTML
+    for spec in param_table(CoreConfig(), BUS):
+        rows = [line for line in text.splitlines() if line.startswith(f"| `{spec.name}` |")]
+        assert len(rows) == 1, spec.name
+        cells = [c.strip() for c in rows[0].strip("|").split(" | ")]
+        key = spec.path.replace(".improved.", ".<profile>.")
+        assert cells[1] == f"`{key}`" and cells[2] == (spec.unit or "-"), cells
+        assert cells[3].startswith(f"[{spec.min:g}, {spec.max:g}]") and cells[5] == spec.description, cells
+    headers = [line for line in text.splitlines() if line.startswith("## ")]
+    assert len(headers) == len(SECTIONS)
+
+
+def test_every_mavlink_declaration_is_in_the_table_and_the_table_reads_only_declarations() -> None:
+    """No declared MAVLink name outside the table's sections (it would be served by no one), every
+    profile declares the same names, and every parameter has a finite, closed range."""
+    for profile in ("paper", "improved"):
+        config = dataclasses.replace(CoreConfig(), control=ControlParams(profile=profile))
+        declared_names = {
+            meta.mavlink
+            for path, table in _tables(config)
+            for _, meta in declared(type(table))
+            if meta.mavlink is not None and not (path.startswith("control.") and path.split(".")[1] != profile
+                                                 and path != "control.limits")
+        }  # fmt: skip
+        table = param_table(config, BUS)
+        assert {s.name for s in table} == declared_names == set(PARAM_NAMES)
+        for s in table:
+            assert math.isfinite(s.min) and math.isfinite(s.max) and s.min <= s.default <= s.max, s
+
+
+def _sections(config: CoreConfig) -> list[tuple[str, Any]]:
+    return [(p, t) for p, t in _tables(config) if p and any(True for _ in declared(type(t)))]
+
+
+def _toml(path: str, key: str, value: float) -> dict[str, Any]:
+    data: dict[str, Any] = {key: value}
+    for part in reversed(path.split(".")):
+        data = {part: data}
+    return data
+
+
+def test_the_config_loader_checks_every_declared_range() -> None:
+    """GIVEN any declared key WHEN the file sets it just outside its declared range THEN start-up stops
+    with one line naming the key and the range; at the bound it loads."""
+    checked = 0
+    for path, table in _sections(CoreConfig()):
+        for key, meta in declared(type(table)):
+            lo, hi = declared_bounds(table, key)
+            for bound, outside in (
+                (lo, lo - max(1e-3, abs(lo) * 1e-3)),
+                (hi, hi + max(1e-3, abs(hi) * 1e-3)),
+            ):
+                if not math.isfinite(bound):
+                    continue
+                value: float = bound
+                if isinstance(getattr(table, key), int):
+                    value, outside = int(bound), int(bound) + (1 if bound == hi else -1)
+                loaded = config_from_dict(_toml(path, key, value), "onboard.toml")
+                assert getattr(loaded, path.split(".")[0]) is not None
+                with pytest.raises(ConfigError) as exc:
+                    config_from_dict(_toml(path, key, outside), "onboard.toml")
+                message = str(exc.value)
+                assert "\n" not in message and f"{key} must be" in message and f"{bound:g}" in message, (
+                    message
+                )
+                checked += 1
+            assert meta.desc, key
+    assert checked >= 40  # every finite bound of every declared key (the gains have an operator range only)
