@@ -12,6 +12,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common.mavlink_signing import signing_timestamp_now
 from groundstation.mavclient import LinkError, MavClient
+from tests.waiting import wait_until
 
 from .conftest import Vehicle
 
@@ -77,7 +78,7 @@ def test_setup_signing_over_a_secure_endpoint_turns_signing_on_and_survives_a_re
         c.mav.signing.timestamp = signing_timestamp_now()
         c.send(mavlink.MAVLink_setup_signing_message(1, 1, KEY, signing_timestamp_now()))
         c.close()
-        time.sleep(0.3)
+        wait_until(lambda: v.link.transport.signing, what="signing on")
         # THEN only signed messages are taken: an unsigned station gets no answer, a signed one does
         assert not _answers(udp, None)
         assert _answers(udp, KEY)
@@ -108,19 +109,18 @@ def test_a_signed_setup_signing_rotates_the_key_and_an_all_zero_one_turns_signin
             mavlink.MAVLink_setup_signing_message(1, 1, NEW_KEY, 0).pack(unsigned), ("127.0.0.1", v.port)
         )
         raw.close()
-        time.sleep(0.3)
+        wait_until(lambda: v.link.stats()["unsigned_rejected"] >= 1, what="the unsigned SETUP_SIGNING read")
         assert _answers(udp, KEY)
         # signed with the current key: the key is rotated
         c.send(mavlink.MAVLink_setup_signing_message(1, 1, NEW_KEY, signing_timestamp_now()))
-        time.sleep(0.3)
         c.close()
+        wait_until(lambda: _answers(udp, NEW_KEY), 20.0, "answers to the new key")
         assert not _answers(udp, KEY)
-        assert _answers(udp, NEW_KEY)
         # an all-zero key and timestamp, signed with the key: signing off
         c = _client(udp, NEW_KEY)
         c.send(mavlink.MAVLink_setup_signing_message(1, 1, bytes(32), 0))
-        time.sleep(0.3)
         c.close()
+        wait_until(lambda: not v.link.transport.signing, what="signing off")
         assert _answers(udp, None)
     finally:
         v.stop()
@@ -145,9 +145,8 @@ def test_a_forged_far_future_timestamp_does_not_lock_the_ground_station_out(
                 ("127.0.0.1", v.port),
             )
         raw.close()
-        time.sleep(0.3)
         # THEN its packets are refused as badly signed, and the real ground station is answered
-        assert v.link.stats()["bad_signature"] >= 5
+        wait_until(lambda: v.link.stats()["bad_signature"] >= 5, what="5 packets refused as badly signed")
         assert _answers(f"udpout:127.0.0.1:{v.port}", KEY)
     finally:
         v.stop()
@@ -173,18 +172,17 @@ def test_with_signing_on_unsigned_heartbeats_make_no_peers_and_a_lost_key_is_rep
         socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(MAX_PEERS + 4)]
         for s in socks:
             s.sendto(beat, ("127.0.0.1", v.link.ports[0]))
-        time.sleep(0.3)
         # THEN they are taken (counted) but none is a peer, and the ground station with the key is answered
-        assert v.link.stats()["unsigned_accepted"] >= len(socks) and v.link.stats()["peers_refused"] == 0
+        wait_until(lambda: v.link.stats()["unsigned_accepted"] >= len(socks), what="every heartbeat read")
+        assert v.link.stats()["peers_refused"] == 0
         assert _answers(udp, KEY)
         for s in socks:
             s.close()
         # WHEN the key is lost: an unsigned SETUP_SIGNING over the secure endpoint sets a new one
         c = _client(tcp)
         c.send(mavlink.MAVLink_setup_signing_message(1, 1, NEW_KEY, signing_timestamp_now()))
-        time.sleep(0.3)
         c.close()
+        wait_until(lambda: _answers(udp, NEW_KEY), 20.0, "answers to the new key")
         assert not _answers(udp, KEY)
-        assert _answers(udp, NEW_KEY)
     finally:
         v.stop()
