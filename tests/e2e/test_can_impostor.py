@@ -3,7 +3,7 @@
 - FIN_CMD and PROP_CMD at 50 Hz (within the bench's rate check: 4x the 20 Hz cycle) while the firmware is
   not armed: the bench's actuator node obeys ARMED
   commands only while the onboard's own heartbeat says it is live, so nothing moves; an impostor that also
-  forges that heartbeat is what the E2E profile cannot stop (README: what E2E protects against).
+  forges that heartbeat is what the E2E profile cannot stop (docs/bus-contract.md: what E2E protects against).
 - DEPTH = 25 m at 200 Hz next to the bench's genuine DEPTH: two interleaved counter streams on one id, seen
   as a conflicting sender at the genuine sensor's next frame; the id is then distrusted, so the impostor's
   value is taken for at most that first sensor period.
