@@ -6,8 +6,10 @@ import threading
 import time
 
 import can
+import pytest
 from can.interfaces.virtual import VirtualBus
 
+import hil_sim.replay as replay_module
 from hil_sim.replay import replay
 from onboard.protocol.messages import DepthMeas, FinCmd
 from onboard.protocol.port import BusPort
@@ -41,7 +43,9 @@ def test_recorded_frames_replay_in_order_and_filtered(tmp_path) -> None:
     assert len(list(can.LogReader(str(log_path)))) == 20
 
 
-def test_a_candump_log_is_recorded_cantools_decodes_it_and_replay_speed_is_real(tmp_path) -> None:
+def test_a_candump_log_is_recorded_cantools_decodes_it_and_replay_keeps_the_spacing_over_speed(
+    tmp_path, monkeypatch
+) -> None:
     import subprocess
     import sys
 
@@ -63,15 +67,40 @@ def test_a_candump_log_is_recorded_cantools_decodes_it_and_replay_speed_is_real(
         input=log_path.read_text(), capture_output=True, text=True, timeout=60, check=True,
     ).stdout  # fmt: skip
     assert out.count("DEPTH(") == 20 and "depth_m: 1.0 m" in out, out[:500]
-    # AND replayed at x20 it takes about 2 s / 20, not 2 s
+    # AND replayed at x20 each frame goes out at its recorded time / 20: 0.1 s apart in the log, 5 ms on the
+    # replay's clock (a simulated one here, advanced by each wait, so the test does not depend on the load)
     out_channel = f"replay-out-{time.monotonic_ns()}"
     tx = VirtualBus(channel=out_channel)
+    clock = _SimulatedClock()
+    monkeypatch.setattr(replay_module, "time", clock)
     try:
-        t0 = time.monotonic()
+        sent_at: list[float] = []
         progress: list[tuple[int, int]] = []
-        sent = replay(str(log_path), tx, 20.0, None, threading.Event(), lambda d, n: progress.append((d, n)))
-        elapsed = time.monotonic() - t0
+
+        def on_frame(done: int, total: int) -> None:
+            progress.append((done, total))
+            sent_at.append(clock.now_s)
+
+        sent = replay(str(log_path), tx, 20.0, None, clock.stop, on_frame)
     finally:
         tx.shutdown()
     assert sent == 20 and progress[-1] == (20, 20)
-    assert 0.08 <= elapsed < 0.6, elapsed
+    assert sent_at == pytest.approx([0.1 * i / 20.0 for i in range(20)], abs=1e-9)
+
+
+class _SimulatedClock:
+    """The replay's ``time`` module and its stop event on one simulated clock: waiting advances it."""
+
+    def __init__(self) -> None:
+        self.now_s = 0.0
+        clock = self
+
+        class _Stop(threading.Event):
+            def wait(self, timeout: float | None = None) -> bool:
+                clock.now_s += timeout or 0.0
+                return False
+
+        self.stop = _Stop()
+
+    def monotonic(self) -> float:
+        return self.now_s
