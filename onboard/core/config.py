@@ -22,3 +22,10 @@ class CoreConfig:
     control: ControlParams = field(default_factory=ControlParams)
     failsafe: FailsafeParams = field(default_factory=FailsafeParams)
     mission: MissionParams = field(default_factory=MissionParams)
+
+    def __post_init__(self) -> None:
+        # One staleness timeout: the estimator marks attitude and depth stale after the operator's
+        # FS_NAV_TMO_S (a SetParam rebuilds this configuration with dataclasses.replace, so it follows).
+        nav = self.nav.with_stale_after(self.failsafe.nav_timeout_s)
+        if nav is not self.nav:
+            object.__setattr__(self, "nav", nav)

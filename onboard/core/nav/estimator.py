@@ -18,6 +18,10 @@ and the heading (:mod:`onboard.core.nav.current`), on every new DVL sample.
 
 Attitude, rates, depth and body velocity are passed through from the latest valid sample, with their ages.
 A non-finite sample is rejected, counted and flagged ``NAN_INPUT``; the previous valid sample stays in use.
+Attitude and depth older than ``stale_after_s`` are ``AHRS_STALE`` / ``DEPTH_STALE`` (the navigation is not
+valid: the failsafe aborts, START waits). That timeout has one owner, the operator's FS_NAV_TMO_S
+(``[failsafe] nav_timeout_s``): :class:`onboard.core.config.CoreConfig` hands it to the estimator
+(:meth:`NavParams.with_stale_after`), so no second, shorter timeout decides before it.
 
 Pure: ``step(inputs, state, params, now_s)``. The filter needs the absolute time ``now_s`` (not only ``dt_s``)
 because it ages time-stamped samples; ``now_s`` comes from the loop's injected clock, nothing here reads one.
@@ -25,10 +29,11 @@ because it ages time-stamped samples; ``now_s`` comes from the loop's injected c
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from math import isfinite
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 from auv_common.config import require
 from onboard.core.nav.current import CurrentFilter
@@ -42,6 +47,13 @@ from onboard.core.nav.types import (
     PositionFix,
 )
 from onboard.protocol.conventions import body_to_ned
+
+#: The navigation staleness timeout's default, s: FS_NAV_TMO_S (``[failsafe] nav_timeout_s``) declares it
+#: with this value; an estimator built without a configuration (tests, replays) uses it too.
+NAV_TIMEOUT_DEFAULT_S = 1.0
+_MOVED_TO_FS_NAV_TMO_S = (
+    "attitude and depth staleness has one timeout, [failsafe] nav_timeout_s (FS_NAV_TMO_S): set that instead"
+)
 
 
 @dataclass(frozen=True)
@@ -68,8 +80,18 @@ class NavParams:
     - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``.
     - ``fix_timeout_s``: a fix older than this raises ``POSITION_STALE`` (dead reckoning, still valid).
     - ``max_dead_reckoning_s``: beyond this without an accepted fix the position is ``POSITION_INVALID``.
-    - ``dvl_timeout_s``, ``ahrs_timeout_s``, ``depth_timeout_s``: stale thresholds of the other inputs, s.
+    - ``dvl_timeout_s``: a DVL velocity older than this is ``DVL_STALE`` (dead reckoning coasts), s.
+
+    Attitude and depth have no timeout of their own here: ``stale_after_s`` is FS_NAV_TMO_S, set by
+    :class:`~onboard.core.config.CoreConfig` (the old ``ahrs_timeout_s`` / ``depth_timeout_s`` keys, 0.5 s,
+    aborted before the operator's timeout could: a config that sets them is refused with the reason).
     """
+
+    #: Keys that were removed, and why (``auv_common.config.from_table`` refuses them with this reason).
+    REMOVED_KEYS: ClassVar[dict[str, str]] = {
+        "ahrs_timeout_s": _MOVED_TO_FS_NAV_TMO_S,
+        "depth_timeout_s": _MOVED_TO_FS_NAV_TMO_S,
+    }
 
     fix_sigma_m: float = 0.3
     dvl_noise_m_per_sqrt_s: float = 0.05
@@ -90,8 +112,8 @@ class NavParams:
     fix_timeout_s: float = 5.0
     max_dead_reckoning_s: float = 60.0
     dvl_timeout_s: float = 1.0
-    ahrs_timeout_s: float = 0.5
-    depth_timeout_s: float = 0.5
+    #: Attitude and depth older than this are stale (s): FS_NAV_TMO_S, handed over by CoreConfig.
+    stale_after_s: float = field(default=NAV_TIMEOUT_DEFAULT_S, init=False)
     # Derived once (the step reads them every tick): variances and squared densities.
     fix_var_m2: float = field(init=False, repr=False)
     q_pos_dvl: float = field(init=False, repr=False)
@@ -117,7 +139,7 @@ class NavParams:
         require(self.gate_chi2 > 0.0, f"gate_chi2 must be > 0, got {self.gate_chi2}")
         require(self.max_consecutive_rejections >= 1, "max_consecutive_rejections must be >= 1")
         timeouts = ("fix_timeout_s", "max_dead_reckoning_s", "dvl_timeout_s")
-        for name in (*timeouts, "ahrs_timeout_s", "depth_timeout_s"):
+        for name in timeouts:
             require(getattr(self, name) > 0.0, f"{name} must be > 0, got {getattr(self, name)}")
         object.__setattr__(self, "fix_var_m2", self.fix_sigma_m**2)
         object.__setattr__(self, "q_pos_dvl", self.dvl_noise_m_per_sqrt_s**2)
@@ -125,6 +147,14 @@ class NavParams:
         object.__setattr__(self, "q_bias", self.bias_walk_mps_per_sqrt_s**2)
         initial_bias_var = self.initial_bias_sigma_mps**2 if self.estimate_bias else 0.0
         object.__setattr__(self, "initial_bias_var", initial_bias_var)
+
+    def with_stale_after(self, stale_after_s: float) -> NavParams:
+        """These parameters with attitude and depth stale after ``stale_after_s`` (s): FS_NAV_TMO_S."""
+        if stale_after_s == self.stale_after_s:
+            return self
+        new = dataclasses.replace(self)
+        object.__setattr__(new, "stale_after_s", stale_after_s)
+        return new
 
 
 class AxisFilter(NamedTuple):
@@ -311,7 +341,7 @@ def step(
     ahrs_age = _age(now_s, ahrs.t_sample_s if ahrs else None)
     depth_age = _age(now_s, depth.t_sample_s if depth else None)
     dvl_fresh = dvl is not None and dvl_age <= params.dvl_timeout_s
-    ahrs_fresh = ahrs is not None and ahrs_age <= params.ahrs_timeout_s
+    ahrs_fresh = ahrs is not None and ahrs_age <= params.stale_after_s
 
     # 2. Predict with the DVL velocity rotated to NED (coast on the bias with more noise without it).
     fx, fy = state.x, state.y
@@ -393,7 +423,7 @@ def step(
         conditions |= _AHRS_STALE
     if depth is None:
         conditions |= _DEPTH_MISSING
-    elif depth_age > params.depth_timeout_s:
+    elif depth_age > params.stale_after_s:
         conditions |= _DEPTH_STALE
 
     u = dvl.u_mps if dvl else 0.0

@@ -3,9 +3,9 @@
 Checks (thresholds in the ``[failsafe]`` table, :class:`FailsafeParams`):
 
 - ``NAV_STALE``: the navigation solution is unusable: a blocking :class:`~onboard.core.nav.types.NavCondition`
-  (position invalid, attitude or depth missing, or stale: older than ``nav_timeout_s``, FS_NAV_TMO_S, the one
-  staleness timeout, which the estimator applies: :meth:`onboard.core.nav.estimator.NavParams.with_stale_after`),
-  or a non-finite position/depth.
+  (position invalid, attitude or depth missing, or stale: older than ``nav_timeout_s``, FS_NAV_TMO_S, the
+  one staleness timeout, which the estimator applies:
+  :meth:`onboard.core.nav.estimator.NavParams.with_stale_after`), or a non-finite position/depth.
 - ``DEPTH_LIMIT``: depth below ``max_depth_m``.
 - ``AREA_BOUND``: horizontal position outside the operating rectangle [area_x_min_m, area_x_max_m] x
   [area_y_min_m, area_y_max_m] (NED, m).
@@ -54,7 +54,8 @@ class FailsafeParams:
 
     nav_timeout_s: float = param(
         NAV_TIMEOUT_DEFAULT_S, unit="s", min=NAV_TIMEOUT_MIN_S, operator=(0.0, 10.0),
-        mavlink="FS_NAV_TMO_S", desc="attitude or depth older than this is stale navigation: ABORT, START waits",
+        mavlink="FS_NAV_TMO_S",
+        desc="attitude or depth older than this is stale navigation: ABORT, START waits",
     )  # fmt: skip
     max_depth_m: float = param(
         10.0, unit="m", min=MAX_DEPTH_MIN_M, operator=(0.0, 100.0), mavlink="FS_MAX_DEPTH_M",

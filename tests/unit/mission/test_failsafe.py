@@ -32,8 +32,15 @@ def test_healthy_navigation_passes() -> None:
     [
         (dataclasses.replace(OK, conditions=NavCondition.POSITION_INVALID), FailsafeFlag.NAV_STALE),
         (dataclasses.replace(OK, conditions=NavCondition.AHRS_STALE), FailsafeFlag.NAV_STALE),
-        (dataclasses.replace(OK, attitude_age_s=1.5), FailsafeFlag.NAV_STALE),
-        (dataclasses.replace(OK, depth_age_s=math.inf), FailsafeFlag.NAV_STALE),
+        # stale: older than FS_NAV_TMO_S, which the estimator applies (tests/unit/nav/test_nav_timeout.py)
+        (
+            dataclasses.replace(OK, depth_age_s=1.5, conditions=NavCondition.DEPTH_STALE),
+            FailsafeFlag.NAV_STALE,
+        ),
+        (
+            dataclasses.replace(OK, depth_age_s=math.inf, conditions=NavCondition.DEPTH_MISSING),
+            FailsafeFlag.NAV_STALE,
+        ),
         (dataclasses.replace(OK, x_m=math.nan), FailsafeFlag.NAV_STALE),
         (nav_state_at(0.0, 0.0, 10.5), FailsafeFlag.DEPTH_LIMIT),
         (nav_state_at(51.0, 0.0, 1.0), FailsafeFlag.AREA_BOUND),
