@@ -355,12 +355,10 @@ def test_missing_sync_ack_after_the_start_raises_echo_timeout() -> None:
             onboard.answer(tick)
             tick = onboard.next_tick()
         # WHEN the onboard stops answering
-        t0 = time.monotonic()
-        # THEN the bench ends the run within about echo_timeout_s with a clear EchoTimeout
+        # THEN the bench ends the run on its own with a clear EchoTimeout naming the tick and the deadline
+        # (the join's bound is only how long the test waits for it)
         with pytest.raises(EchoTimeout, match=r"no SYNC_ACK for tick 4 within 0\.3 s") as err:
-            bench.join(timeout_s=3.0)
-        elapsed = time.monotonic() - t0
-    assert 0.25 <= elapsed < 2.0
+            bench.join(timeout_s=30.0)
     assert "lock-step" in str(err.value)
 
 
@@ -373,14 +371,15 @@ def test_echo_timeout_fires_even_while_commands_keep_arriving() -> None:
         onboard.next_tick()
         # WHEN the onboard keeps commanding at 100 Hz but never echoes the SYNC (e.g. it runs in real time)
         t0 = time.monotonic()
-        while bench.thread.is_alive() and time.monotonic() - t0 < 3.0:
+        while bench.thread.is_alive() and time.monotonic() - t0 < 30.0:
             onboard.port.send(m.FinCmd(0.1, 0.0, 0.0))
             onboard.port.send(m.PropCmd(20.0, m.ActuatorMode.ARMED))
             time.sleep(0.01)
-        # THEN the bench still ends the run at the deadline with EchoTimeout
+        # THEN the bench ended the run while the commands were still coming (they do not restart the
+        # 0.3 s deadline: else it would run on), with EchoTimeout
+        assert not bench.thread.is_alive()
         with pytest.raises(EchoTimeout, match="no SYNC_ACK for tick 2"):
             bench.join(timeout_s=1.0)
-    assert time.monotonic() - t0 < 2.0
 
 
 # --- (d) sensor rates -----------------------------------------------------------------------------------
