@@ -18,29 +18,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from auv_campaign.cli_common import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_RUN_ERROR,
+    EXIT_USAGE,
+    add_executor_args,
+    fail,
+    usable_out_dir,
+)
 from auv_common.config import ConfigError
-
-EXIT_OK, EXIT_RUN_ERROR, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-def _executor_args(p: argparse.ArgumentParser) -> None:
-    from auv_campaign.execute import default_workers
-
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=default_workers(),
-        help=f"local worker processes, or the CPUs of a local Ray (default: the cores, {default_workers()})",
-    )
-    p.add_argument(
-        "--ray",
-        nargs="?",
-        const="",
-        default=None,
-        metavar="ADDRESS",
-        help="run the runs as Ray tasks: on a local Ray (no ADDRESS) or on the cluster at ADDRESS",
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar (e.g. in a log)")
 
 
 def campaign_parser() -> argparse.ArgumentParser:
@@ -58,7 +45,7 @@ def campaign_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("spec", help="the campaign spec (YAML)")
     p.add_argument("--out", required=True, help="the output directory (created; resumed if it has runs)")
-    _executor_args(p)
+    add_executor_args(p)
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--only", metavar="RUN_ID", help="re-fly this one run here and print its row")
     p.add_argument(
@@ -67,23 +54,6 @@ def campaign_parser() -> argparse.ArgumentParser:
         help="with --only: draw it (OUT/runs/RUN_ID/track.png; errors.png: the paper's e_x, e_y by time)",
     )
     return p
-
-
-def _fail(prog: str, message: str, code: int = EXIT_USAGE) -> int:
-    print(f"{prog}: {message}", file=sys.stderr)
-    return code
-
-
-def usable_out_dir(out: Path) -> str:
-    """ "" if ``out`` is (or can be made) a directory this process can write in, else why not (one line)."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        return f"--out {out}: not a directory that can be written ({exc.strerror or exc})"
-    return ""
 
 
 def rerun_command(spec_path: str, out: str) -> Callable[[str], str]:
@@ -102,19 +72,19 @@ def campaign_main(argv: list[str]) -> int:
     from auv_campaign.spec import load_spec
 
     if args.workers < 1:
-        return _fail(prog, f"--workers must be >= 1, got {args.workers}")
+        return fail(prog, f"--workers must be >= 1, got {args.workers}")
     try:
         spec = load_spec(args.spec)
     except (ConfigError, OSError) as exc:
-        return _fail(prog, str(exc))
+        return fail(prog, str(exc))
     out = Path(args.out)
     problem = usable_out_dir(out)
     if problem:
-        return _fail(prog, problem)
+        return fail(prog, problem)
     if args.only:
         return _only(prog, spec, out, args.only, args.plot)
     if args.plot:
-        return _fail(prog, "--plot needs --only RUN_ID (report.html has the figures of a campaign)")
+        return fail(prog, "--plot needs --only RUN_ID (report.html has the figures of a campaign)")
     return _campaign(prog, spec, out, args)
 
 
@@ -126,7 +96,7 @@ def _only(prog: str, spec: Any, out: Path, run_id: str, plot: bool) -> int:
 
     runs = {r.run_id: r for r in spec.runs}
     if run_id not in runs:
-        return _fail(prog, f"--only {run_id}: no such run in {spec.path} ({len(runs)} runs)")
+        return fail(prog, f"--only {run_id}: no such run in {spec.path} ({len(runs)} runs)")
     run = runs[run_id]
     output = fly(run, keep_truth=True)
     record = output.to_json(run)
@@ -205,7 +175,7 @@ def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             interrupted = True
         except ExecutorError as exc:
-            return _fail(prog, str(exc), EXIT_RUN_ERROR)
+            return fail(prog, str(exc), EXIT_RUN_ERROR)
     records = [seen[r.run_id] for r in spec.runs if r.run_id in seen]
     summary = write_all(out, records, spec.axes, spec.name, rerun_command(args.spec, str(out)), spec.legend)
     summary["wall_time_s"] = round(time.monotonic() - t0, 2)

@@ -71,12 +71,12 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any
 
-from auv_campaign.cli import (
+from auv_campaign.cli_common import (
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_RUN_ERROR,
-    _executor_args,
-    _fail,
+    add_executor_args,
+    fail,
     usable_out_dir,
 )
 from auv_campaign.results import run_cost
@@ -960,7 +960,7 @@ def tune_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--trials", type=int, required=True, help="finished trials wanted, the baseline included")
     p.add_argument("--out", required=True, help="the output directory (created; its study.db is resumed)")
-    _executor_args(p)
+    add_executor_args(p)
     p.add_argument("--sampler", choices=SAMPLERS, default="tpe", help="optuna sampler (default: tpe)")
     p.add_argument(
         "--seed",
@@ -987,35 +987,35 @@ def tune_main(argv: list[str]) -> int:
     from auv_campaign.spec import load_spec
 
     if args.workers < 1:
-        return _fail(PROG, f"--workers must be >= 1, got {args.workers}")
+        return fail(PROG, f"--workers must be >= 1, got {args.workers}")
     if args.trials < 1:
-        return _fail(PROG, f"--trials must be >= 1, got {args.trials}")
+        return fail(PROG, f"--trials must be >= 1, got {args.trials}")
     if args.holdout_seed_offset == 0:
-        return _fail(PROG, "--holdout-seed-offset 0 would make the held-out runs the training runs")
+        return fail(PROG, "--holdout-seed-offset 0 would make the held-out runs the training runs")
     try:
         entries = parse_params(args.params)
     except ParamError as exc:
-        return _fail(PROG, f"--params {exc}")
+        return fail(PROG, f"--params {exc}")
     try:
         train = load_spec(args.spec)
         held = load_spec(args.spec, seed_offset=args.holdout_seed_offset,
                          random_seed_offset=args.holdout_seed_offset)  # fmt: skip
     except (ConfigError, OSError) as exc:
-        return _fail(PROG, str(exc))
+        return fail(PROG, str(exc))
     clash = holdout_clash(train, held)
     if clash is not None:
-        return _fail(PROG, f"--holdout-seed-offset {args.holdout_seed_offset}: {clash}")
+        return fail(PROG, f"--holdout-seed-offset {args.holdout_seed_offset}: {clash}")
     from onboard.app.runtime import build_config
 
     try:
         params = resolve_params(entries, build_config(None, []), onboard_accepts)
     except ParamError as exc:
-        return _fail(PROG, f"--params {exc}")
+        return fail(PROG, f"--params {exc}")
     if args.sampler == "cmaes":
         try:
             import cmaes  # noqa: F401
         except ImportError:
-            return _fail(PROG, "--sampler cmaes needs the cmaes package (pip install cmaes)")
+            return fail(PROG, "--sampler cmaes needs the cmaes package (pip install cmaes)")
         if len(params) < 2:
             print(f"{PROG}: note: CMA-ES needs >= 2 parameters; with one, optuna samples it at random",  # noqa: T201
                   file=sys.stderr)  # fmt: skip
@@ -1030,7 +1030,7 @@ def tune_main(argv: list[str]) -> int:
     out = Path(args.out)
     problem = usable_out_dir(out)
     if problem:
-        return _fail(PROG, problem)
+        return fail(PROG, problem)
     storage = f"sqlite:///{(out / 'study.db').resolve()}"
     attrs = study_attrs(params, train.runs, args.sampler, args.seed)
     try:
@@ -1038,13 +1038,13 @@ def tune_main(argv: list[str]) -> int:
             storage, train.name, attrs, lambda seed: make_sampler(args.sampler, params, seed, args.trials)
         )
     except ParamError as exc:
-        return _fail(PROG, str(exc).replace(storage, str(out / "study.db")))
+        return fail(PROG, str(exc).replace(storage, str(out / "study.db")))
     from auv_campaign.execute import ExecutorError
 
     try:
         return _tune(study, train, held, params, args, out)
     except ExecutorError as exc:
-        return _fail(PROG, str(exc), EXIT_RUN_ERROR)
+        return fail(PROG, str(exc), EXIT_RUN_ERROR)
 
 
 def _tune(
@@ -1128,7 +1128,7 @@ def _tune(
               file=sys.stderr)  # fmt: skip
         return EXIT_RUN_ERROR
     if gave_up is not None:
-        return _fail(PROG, gave_up)
+        return fail(PROG, gave_up)
     return EXIT_OK
 
 
