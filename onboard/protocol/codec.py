@@ -9,6 +9,11 @@ The DBC file ``isimi100.dbc`` beside this module is the single source of truth f
   :meth:`FrameReceiver.check_rates` is called, a rate limit per id from the DBC's nominal cycle times) and
   counts every rejection by reason.
 - :meth:`Codec.cycle_time_s`: an id's nominal cycle time, the DBC's ``GenMsgCycleTime`` (its one owner).
+
+Each message is compiled once, when the codec loads the DBC (:class:`CompiledMessage`: shifts, masks,
+scales, ranges and the CRC start per id), so a frame costs one pass over a tuple; the bytes are cantools'
+to the bit (the tests compare every message with ``Message.encode`` / ``Message.decode``). A message the
+compiled form does not cover (float or big-endian signals, multiplexing) takes cantools' general path.
 """
 
 from __future__ import annotations
@@ -24,9 +29,17 @@ from typing import Any, Final
 
 import cantools
 import cantools.database
+from cantools.database.conversion import BaseConversion, IdentityConversion, LinearConversion
 
 from auv_common.token_bucket import TokenBucket
-from onboard.protocol.e2e import CRC_BYTE_INDEX, CounterCheck, TxCounters, frame_crc
+from onboard.protocol.e2e import (
+    CRC_BYTE_INDEX,
+    CRC_TABLE,
+    CounterCheck,
+    TxCounters,
+    data_id_crc_state,
+    frame_crc,
+)
 from onboard.protocol.messages import ALL_MESSAGE_TYPES, BusMessage, Sync
 
 DBC_PATH: Final = Path(__file__).with_name("isimi100.dbc")
@@ -99,68 +112,148 @@ class _Spec:
     converters: tuple[Any, ...]  # per field: the callable that turns a decoded number into the field type
     ranges: tuple[tuple[float, float], ...]
     cycle_s: float | None  # the DBC's GenMsgCycleTime in s; None: an event frame (no nominal rate)
+    #: the message compiled to its bit layout (None: cantools' general path encodes and decodes it)
+    compiled: CompiledMessage | None = None
 
 
-@dataclass(frozen=True)
-class _Layout:
-    """The bit layout of an ordinary little-endian integer frame, for a fast path that skips cantools'
-    per-call plumbing (dicts, bitstruct) but keeps its arithmetic: each signal's own cantools
-    ``conversion`` object turns values into raw integers and back, so the bytes and the decoded numbers
-    are exactly those of ``Message.encode`` / ``Message.decode`` (checked against cantools in the tests).
+class _Refused(Exception):
+    """Raised inside a compiled encoder for a value it does not take: :meth:`Codec.encode` then finds out
+    why, once, on its checking path (which raises the :class:`EncodeError` with the reason)."""
 
-    ``dbc`` is the cantools message it was built from: the fast path applies only while the spec still
-    holds that object.
+
+class CompiledMessage:
+    """One DBC message compiled, once, into the arithmetic of its frame: per signal its attribute, the
+    accepted range, cantools' scale and offset, bit shift, mask and sign bit; the alive counter's shift; the
+    CRC register after the data id. :meth:`encode` and :meth:`decode` then do a frame in one pass over a
+    tuple (no dict per call, no bitstruct): the raw value of a signal is cantools' own arithmetic,
+    ``round((value - offset) / scale)`` out and ``raw * scale + offset`` back with the same scale and offset
+    objects, so the bytes and numbers are exactly those of ``Message.encode`` / ``Message.decode``
+    (tests/unit/protocol/test_codec.py checks every message against cantools).
+
+    Built by :meth:`compile` for an ordinary frame: little-endian integer signals (identity or linear
+    conversions, value tables only as names for numbers), 8 bytes, the E2E counter and the CRC in byte 7,
+    no multiplexing. Anything else stays on cantools' general path.
     """
 
-    dbc: Any
-    # per signal: (name, to_raw, from_raw, start bit, bit mask, sign bit or 0)
-    signals: tuple[tuple[str, Any, Any, int, int, int], ...]
-    length: int
+    __slots__ = ("cls", "counter_shift", "crc_state", "decode_fields", "encode_fields", "t_index")
 
+    def __init__(
+        self,
+        cls: type[BusMessage],
+        encode_fields: tuple[tuple[str, float, float, Any, Any, int, int, int, int], ...],
+        decode_fields: tuple[tuple[int, int, int, Any, Any, float, float, Any], ...],
+        counter_shift: int,
+        crc_state: int,
+        t_index: int,
+    ) -> None:
+        self.cls = cls
+        # (attribute, lo, hi, offset, scale, shift, mask, raw lo, raw hi), in signal order
+        self.encode_fields = encode_fields
+        # (shift, mask, sign bit or 0, offset, scale, lo, hi, converter), in dataclass field order
+        self.decode_fields = decode_fields
+        self.counter_shift = counter_shift
+        self.crc_state = crc_state  # data_id_crc_state(frame_id)
+        self.t_index = t_index  # where t_sample_s goes among the constructor's positional arguments
 
-def _layout(dbc_msg: Any) -> _Layout | None:
-    """The fast layout of a message, or None when it needs cantools' general path."""
-    if dbc_msg.is_container or dbc_msg.is_multiplexed():
-        return None
-    signals = []
-    for sig in dbc_msg.signals:
-        if sig.byte_order != "little_endian" or sig.conversion.is_float or sig.multiplexer_ids:
+    @classmethod
+    def compile(cls, spec: _Spec) -> CompiledMessage | None:
+        """The compiled form of ``spec``'s message, or None when it needs cantools' general path."""
+        dbc_msg = spec.dbc
+        if dbc_msg.is_container or dbc_msg.is_multiplexed() or dbc_msg.length != FRAME_LENGTH:
             return None
-        conv = sig.conversion
-        signals.append(
-            (
-                sig.name,
-                conv.numeric_scaled_to_raw,
-                conv.raw_to_scaled,
-                sig.start,
-                (1 << sig.length) - 1,
-                (1 << (sig.length - 1)) if sig.is_signed else 0,
-            )
+        signals = {sig.name: sig for sig in dbc_msg.signals}
+        if set(signals) != {*spec.fields, *E2E_SIGNALS}:
+            return None
+        counter, crc = signals["e2e_counter"], signals["e2e_crc"]
+        if (crc.start, crc.length, counter.length) != (8 * CRC_BYTE_INDEX, 8, 4):
+            return None
+        for sig in signals.values():
+            numeric = _numeric_conversion(sig.conversion)
+            if sig.byte_order != "little_endian" or sig.multiplexer_ids or numeric is None:
+                return None
+            if sig is not crc and sig.start + sig.length > 8 * CRC_BYTE_INDEX:
+                return None  # a signal in the CRC byte
+            if sig.length > 52:
+                return None  # its raw values would not all be exact as floats
+        names = [f.name for f in dataclasses.fields(spec.cls)]
+        encode_fields, decode_fields = {}, {}
+        for name, (lo, hi), conv in zip(spec.fields, spec.ranges, spec.converters, strict=True):
+            sig = signals[name]
+            offset, scale = _numeric_conversion(sig.conversion)  # type: ignore[misc]
+            mask = (1 << sig.length) - 1
+            sign = 1 << (sig.length - 1) if sig.is_signed else 0
+            raw_lo, raw_hi = (-sign, sign - 1) if sign else (0, mask)
+            encode_fields[name] = (name, lo, hi, offset, scale, sig.start, mask, raw_lo, raw_hi)
+            decode_fields[name] = (sig.start, mask, sign, offset, scale, lo, hi, conv)
+        return cls(
+            spec.cls,
+            tuple(encode_fields[sig.name] for sig in dbc_msg.signals if sig.name in encode_fields),
+            tuple(decode_fields[name] for name in names if name != "t_sample_s"),
+            counter.start,
+            data_id_crc_state(spec.frame_id),
+            names.index("t_sample_s"),
         )
-    return _Layout(dbc_msg, tuple(signals), dbc_msg.length)
+
+    def encode(self, msg: Any, counter: int) -> bytes:
+        """The 8 bytes of ``msg`` with alive counter ``counter`` and its CRC. Raises :class:`_Refused` for
+        a value that is not a number, not finite, outside its range or its bits."""
+        packed = (counter & 0xF) << self.counter_shift
+        for attr, lo, hi, offset, scale, shift, mask, raw_lo, raw_hi in self.encode_fields:
+            number = float(getattr(msg, attr))  # a TypeError / ValueError: not a number
+            if not lo <= number <= hi:  # NaN fails here too
+                raise _Refused(attr)
+            raw = round((number - offset) / scale)
+            if not raw_lo <= raw <= raw_hi:
+                raise _Refused(attr)
+            packed |= (raw & mask) << shift
+        crc = self.crc_state
+        for byte in packed.to_bytes(CRC_BYTE_INDEX, "little"):
+            crc = CRC_TABLE[crc ^ byte]
+        return (packed | (crc ^ 0xFF) << (8 * CRC_BYTE_INDEX)).to_bytes(FRAME_LENGTH, "little")
+
+    def decode(self, data: bytes, t_rx_s: float) -> tuple[BusMessage, int]:
+        """The message of an 8-byte frame and its alive counter; raises :class:`FrameError` (``wrong_crc``,
+        ``out_of_range``). Its numbers are finite by construction (integer raw values, finite scales)."""
+        crc = self.crc_state
+        for byte in data[:CRC_BYTE_INDEX]:
+            crc = CRC_TABLE[crc ^ byte]
+        if crc ^ 0xFF != data[CRC_BYTE_INDEX]:
+            raise FrameError("wrong_crc", f"{self.cls.DBC_NAME}: CRC mismatch")
+        packed = int.from_bytes(data, "little")
+        args: list[Any] = []
+        for shift, mask, sign, offset, scale, lo, hi, conv in self.decode_fields:
+            raw = (packed >> shift) & mask
+            if raw & sign:
+                raw -= mask + 1
+            value = raw * scale + offset
+            if not lo <= value <= hi:
+                raise self._out_of_range(len(args), value, "outside")
+            try:
+                args.append(conv(value))
+            except ValueError:
+                raise self._out_of_range(len(args), value, "not a valid value") from None
+        args.insert(self.t_index, t_rx_s)
+        return self.cls(*args), (packed >> self.counter_shift) & 0xF
+
+    def _out_of_range(self, index: int, value: float, what: str) -> FrameError:
+        name = [f.name for f in dataclasses.fields(self.cls) if f.name != "t_sample_s"][index]
+        lo, hi = self.decode_fields[index][5:7]
+        where = f"outside [{lo}, {hi}]" if what == "outside" else what
+        return FrameError("out_of_range", f"{self.cls.DBC_NAME}.{name} = {float(value)} {where}")
 
 
-def _fast_encode(layout: _Layout, values: dict[str, float | int]) -> bytes:
-    packed = 0
-    for name, to_raw, _from_raw, start, mask, sign in layout.signals:
-        raw = to_raw(values[name])
-        lo = -sign if sign else 0
-        hi = sign - 1 if sign else mask
-        if not lo <= raw <= hi:
-            raise ValueError(f"{name}: raw value {raw} does not fit its {mask.bit_length()} bits")
-        packed |= (raw & mask) << start
-    return packed.to_bytes(layout.length, "little")
-
-
-def _fast_decode(layout: _Layout, data: bytes) -> dict[str, Any]:
-    packed = int.from_bytes(data, "little")
-    out: dict[str, Any] = {}
-    for name, _to_raw, from_raw, start, mask, sign in layout.signals:
-        raw = (packed >> start) & mask
-        if sign and raw & sign:
-            raw -= mask + 1
-        out[name] = from_raw(raw, False)
-    return out
+def _numeric_conversion(conversion: Any) -> tuple[Any, Any] | None:
+    """(offset, scale) of a conversion the compiled path reproduces exactly: identity (0, 1) or linear,
+    integer raw values; a value table names numbers only (decoded without choices). None for others."""
+    if conversion.is_float:
+        return None
+    if conversion.choices is not None:
+        conversion = BaseConversion.factory(scale=conversion.scale, offset=conversion.offset)
+    if isinstance(conversion, IdentityConversion):
+        return 0, 1
+    if isinstance(conversion, LinearConversion):
+        return conversion.offset, conversion.scale
+    return None  # e.g. LinearIntegerConversion: its divmod rounding is cantools' own
 
 
 def _converter(annotation: Any) -> Any:
@@ -183,7 +276,6 @@ class Codec:
         self.db = db
         self._by_cls: dict[type[BusMessage], _Spec] = {}
         self._by_id: dict[int, _Spec] = {}
-        self._layouts: dict[int, _Layout | None] = {}
         for cls in ALL_MESSAGE_TYPES:
             dbc_msg = self.db.get_message_by_name(cls.DBC_NAME)
             hints = typing.get_type_hints(cls)
@@ -208,9 +300,9 @@ class Codec:
                 ),
                 cycle_s=dbc_msg.cycle_time / 1000.0 if dbc_msg.cycle_time else None,
             )
+            spec = dataclasses.replace(spec, compiled=CompiledMessage.compile(spec))
             self._by_cls[cls] = spec
             self._by_id[spec.frame_id] = spec
-            self._layouts[spec.frame_id] = _layout(dbc_msg) if len(dbc_msg.signals) == len(signals) else None
 
     def frame_id(self, cls: type[BusMessage]) -> int:
         """The CAN arbitration id of a message type."""
@@ -245,6 +337,28 @@ class Codec:
         spec = self._by_cls.get(type(msg))
         if spec is None:
             raise EncodeError(f"not a bus message: {msg!r}")
+        compiled = spec.compiled
+        if compiled is not None:
+            try:
+                return spec.frame_id, compiled.encode(msg, counter)
+            except (_Refused, TypeError, ValueError, OverflowError):
+                pass  # the checks below say why
+        values = self._checked_values(spec, msg)
+        values["e2e_counter"] = counter & 0xF
+        values["e2e_crc"] = 0
+        dbc_name = spec.cls.DBC_NAME
+        try:
+            data = bytearray(spec.dbc.encode(values, scaling=True, strict=False))
+        except (cantools.database.EncodeError, ValueError, OverflowError) as exc:
+            raise EncodeError(f"{dbc_name}: {exc}", dbc_name) from None
+        data[CRC_BYTE_INDEX] = frame_crc(spec.frame_id, bytes(data))
+        return spec.frame_id, bytes(data)
+
+    @staticmethod
+    def _checked_values(spec: _Spec, msg: BusMessage) -> dict[str, float | int]:
+        """The DBC values of ``msg`` for cantools; raises :class:`EncodeError` with the reason for a value
+        that is not a number, not finite or outside the DBC range (cantools' strict checks, with clearer
+        messages)."""
         dbc_name = spec.cls.DBC_NAME
         values: dict[str, float | int] = {}
         for name, (lo, hi) in zip(spec.fields, spec.ranges, strict=True):
@@ -265,20 +379,7 @@ class Codec:
                     name,
                 )
             values[name] = int(value) if isinstance(value, bool | int) else number
-        values["e2e_counter"] = counter & 0xF
-        values["e2e_crc"] = 0
-        try:
-            # The finiteness and DBC-range checks above are cantools' strict checks, with clearer messages;
-            # doing them twice cost ~30 % of the encode (auv-bench can).
-            layout = self._layouts.get(spec.frame_id)
-            if layout is not None and layout.dbc is spec.dbc:
-                data = bytearray(_fast_encode(layout, values))
-            else:
-                data = bytearray(spec.dbc.encode(values, scaling=True, strict=False))
-        except (cantools.database.EncodeError, ValueError, OverflowError) as exc:
-            raise EncodeError(f"{dbc_name}: {exc}", dbc_name) from None
-        data[CRC_BYTE_INDEX] = frame_crc(spec.frame_id, bytes(data))
-        return spec.frame_id, bytes(data)
+        return values
 
     def decode(self, frame_id: int, data: bytes, t_rx_s: float) -> BusMessage:
         """Decode one frame (stateless checks: id, length, CRC, finiteness, DBC range).
@@ -297,13 +398,11 @@ class Codec:
             raise FrameError(
                 "wrong_length", f"{spec.cls.DBC_NAME}: {len(data)} bytes, expected {FRAME_LENGTH}"
             )
+        if spec.compiled is not None:
+            return spec.compiled.decode(data, t_rx_s)
         if frame_crc(frame_id, data) != data[CRC_BYTE_INDEX]:
             raise FrameError("wrong_crc", f"{spec.cls.DBC_NAME}: CRC mismatch")
-        layout = self._layouts.get(frame_id)
-        if layout is not None and layout.dbc is spec.dbc:
-            raw: Any = _fast_decode(layout, bytes(data))
-        else:
-            raw = spec.dbc.decode(bytes(data), decode_choices=False, scaling=True)
+        raw = spec.dbc.decode(bytes(data), decode_choices=False, scaling=True)
         kwargs: dict[str, Any] = {}
         for name, conv, (lo, hi) in zip(spec.fields, spec.converters, spec.ranges, strict=True):
             number = float(raw[name])

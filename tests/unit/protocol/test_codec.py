@@ -16,6 +16,7 @@ from onboard.protocol.codec import (
     REJECTION_REASONS,
     Codec,
     EncodeError,
+    FrameError,
     FrameReceiver,
     FrameSender,
 )
@@ -171,6 +172,7 @@ class _NanCodec(Codec):
                 return out
 
         object.__setattr__(spec, "dbc", _Dbc())
+        object.__setattr__(spec, "compiled", None)  # the general path, where a float signal could be NaN
 
 
 @pytest.mark.parametrize("reason", [r for r in REJECTION_REASONS if r != "conflicting_sender"])
@@ -196,10 +198,37 @@ def test_listen_ids_ignore_other_frames_without_counting() -> None:
     assert rx.rejected_total == 0 and rx.accepted == 0
 
 
+class _GeneralCodec(Codec):
+    """The codec without its compiled messages: cantools' general path for every frame (the reference)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        for spec in self._by_id.values():
+            object.__setattr__(spec, "compiled", None)
+
+
+GENERAL = _GeneralCodec()
+
+
+def _outcome(call: typing.Callable[[], typing.Any]) -> typing.Any:
+    """What ``call`` returns, or the class, reason and text of the protocol error it raises."""
+    try:
+        return call()
+    except (EncodeError, FrameError) as exc:
+        return type(exc).__name__, getattr(exc, "reason", ""), str(exc)
+
+
+def test_every_message_of_the_dbc_is_compiled() -> None:
+    # GIVEN the DBC THEN every message takes the compiled path (none falls back to cantools per call)
+    assert all(CODEC._by_cls[cls].compiled is not None for cls in ALL_MESSAGE_TYPES)
+    assert len(ALL_MESSAGE_TYPES) == len(CODEC.db.messages)
+
+
 @pytest.mark.parametrize("cls", ALL_MESSAGE_TYPES, ids=lambda c: c.DBC_NAME)
-def test_fast_path_gives_exactly_the_bytes_and_values_of_cantools(cls: type) -> None:
-    # The codec packs this DBC's little-endian integer signals itself (3x faster); cantools stays the
-    # reference: same bytes out, same numbers back, for values across each signal's range.
+def test_compiled_encoder_and_decoder_give_exactly_the_bytes_and_values_of_cantools(cls: type) -> None:
+    # GIVEN values across each signal's DBC range WHEN the compiled codec encodes and decodes them
+    # THEN the bytes are cantools' (Message.encode, the CRC byte the E2E CRC of cantools' bytes) and the
+    # numbers back are cantools' (Message.decode), to the bit
     dbc = CODEC.db.get_message_by_name(cls.DBC_NAME)
 
     @settings(max_examples=80, deadline=None)
@@ -209,19 +238,58 @@ def test_fast_path_gives_exactly_the_bytes_and_values_of_cantools(cls: type) -> 
         values = {s.name: getattr(msg, s.name) for s in dbc.signals if not s.name.startswith("e2e_")}
         values = {k: (int(v) if isinstance(v, bool | int) else float(v)) for k, v in values.items()}
         reference = bytearray(dbc.encode({**values, "e2e_counter": counter, "e2e_crc": 0}, strict=False))
-        reference[7] = data[7]  # the CRC byte is ours
+        reference[7] = frame_crc(frame_id, reference)
         assert data == bytes(reference)
-        assert _fast_decode_for(frame_id, data) == dbc.decode(data, decode_choices=False)
+        back, got_counter = CODEC.decode_with_counter(frame_id, data, 2.5)
+        want = dbc.decode(data, decode_choices=False)
+        assert got_counter == want["e2e_counter"] == counter and back.t_sample_s == 2.5
+        for name, value in want.items():
+            if not name.startswith("e2e_"):
+                got = getattr(back, name)
+                assert got == value and (type(got) is float) == isinstance(value, float), name
 
     check()
 
 
-def _fast_decode_for(frame_id: int, data: bytes) -> dict[str, typing.Any]:
-    from onboard.protocol.codec import _fast_decode
+@pytest.mark.parametrize("cls", ALL_MESSAGE_TYPES, ids=lambda c: c.DBC_NAME)
+def test_compiled_decoder_takes_and_refuses_any_payload_as_cantools_does(cls: type) -> None:
+    # GIVEN any 7 payload bytes with a valid CRC (values inside and outside the DBC ranges, invalid enum
+    # values) and some with a wrong one THEN the compiled decoder gives the general path's message or error
+    frame_id = CODEC.frame_id(cls)
 
-    layout = CODEC._layouts[frame_id]
-    assert layout is not None, "every message of this DBC takes the fast path"
-    return _fast_decode(layout, data)
+    @settings(max_examples=150, deadline=None)
+    @given(payload=st.binary(min_size=7, max_size=7), corrupt=st.integers(0, 255))
+    def check(payload: bytes, corrupt: int) -> None:
+        data = payload + bytes((frame_crc(frame_id, payload + b"\x00") ^ (corrupt if corrupt < 8 else 0),))
+        compiled = _outcome(lambda: CODEC.decode_with_counter(frame_id, data, 0.5))
+        assert compiled == _outcome(lambda: GENERAL.decode_with_counter(frame_id, data, 0.5))
+
+    check()
+
+
+_ANY_NUMBER = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-(2**40), 2**40),
+    st.booleans(),
+    st.just("3"),
+    st.none(),
+)
+
+
+@pytest.mark.parametrize("cls", ALL_MESSAGE_TYPES, ids=lambda c: c.DBC_NAME)
+def test_compiled_encoder_takes_and_refuses_any_value_as_the_checked_path_does(cls: type) -> None:
+    # GIVEN any value in any field (NaN, infinities, out of range, wrong types) THEN the compiled encoder
+    # gives the general path's frame, or its EncodeError with the same reason
+    names = [f.name for f in dataclasses.fields(cls) if f.name != "t_sample_s"]
+
+    @settings(max_examples=150, deadline=None)
+    @given(msg=_strategy_for(cls), field=st.sampled_from(names), value=_ANY_NUMBER)
+    def check(msg: typing.Any, field: str, value: typing.Any) -> None:
+        odd = dataclasses.replace(msg, **{field: value})
+        compiled = _outcome(lambda: CODEC.encode(odd, 3))
+        assert compiled == _outcome(lambda: GENERAL.encode(odd, 3))
+
+    check()
 
 
 def test_an_encode_failure_does_not_use_up_an_alive_counter_value() -> None:
