@@ -18,7 +18,7 @@ import math
 import tomllib
 import types
 import typing
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
@@ -193,12 +193,17 @@ def declaration(cls: type, key: str) -> Param | None:
     return None
 
 
-def declared(cls: type) -> Iterator[tuple[str, Param]]:
-    """``(key, declaration)`` of every declared setting of the dataclass ``cls``, in field order."""
-    for f in dataclasses.fields(cls):
-        meta = declaration(cls, f.name)
-        if meta is not None:
-            yield f.name, meta
+_DECLARED: dict[type, tuple[tuple[str, Param], ...]] = {}
+
+
+def declared(cls: type) -> tuple[tuple[str, Param], ...]:
+    """``(key, declaration)`` of every declared setting of the dataclass ``cls``, in field order (read once
+    per class: ``check_declared`` runs in every ``__post_init__``)."""
+    out = _DECLARED.get(cls)
+    if out is None:
+        found = ((f.name, declaration(cls, f.name)) for f in dataclasses.fields(cls))
+        out = _DECLARED[cls] = tuple((key, meta) for key, meta in found if meta is not None)
+    return out
 
 
 def _bound(bound: float | Bound, table: Any) -> float:
@@ -219,6 +224,8 @@ def range_text(meta: Param, lo: float, hi: float) -> str:
     unit = f" {meta.unit}" if meta.unit else ""
     whys = [b.why for b in (meta.min, meta.max) if isinstance(b, Bound)]
     why = f" ({'; '.join(whys)})" if whys else ""
+    if math.isinf(hi) and math.isinf(lo):
+        return f"a finite number{why}"
     if math.isinf(hi):
         return f">= {lo:g}{unit}{why}"
     if math.isinf(lo):

@@ -1,8 +1,9 @@
 """``python -m onboard.app.params_doc > docs/parameters.md``: the parameter reference page, generated.
 
 The page is :func:`onboard.core.params.parameters_markdown` with the DBC's command ranges (read here, at the
-edge: the core has no cantools); ``tests/unit/params/test_params_doc.py`` fails when the committed page
-differs, so a declaration changed without regenerating the page fails CI.
+edge: the core has no cantools) and the declared keys of ``[mavlink]``;
+``tests/unit/params/test_params_doc.py`` fails when the committed page differs, so a declaration changed
+without regenerating the page fails CI.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.core.params import BusLimits, parameters_markdown
 from onboard.protocol.codec import command_ranges
 
@@ -19,7 +21,7 @@ PAGE_PATH = Path(__file__).resolve().parents[2] / "docs" / "parameters.md"
 
 def page() -> str:
     """The text of ``docs/parameters.md``."""
-    return parameters_markdown(BusLimits.from_ranges(command_ranges()))
+    return parameters_markdown(BusLimits.from_ranges(command_ranges()), (("mavlink", MavlinkConfig()),))
 
 
 def main() -> int:

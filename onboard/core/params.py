@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import struct
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -306,7 +306,9 @@ def _cell(text: str) -> str:
 
 
 def _range_cell(lo: float, hi: float, notes: list[str]) -> str:
-    if math.isinf(hi):
+    if math.isinf(hi) and math.isinf(lo):
+        text = "finite"
+    elif math.isinf(hi):
         text = f">= {lo:g}"
     elif math.isinf(lo):
         text = f"<= {hi:g}"
@@ -328,10 +330,26 @@ def _notes(meta: Param, b: _Bounds | None) -> list[str]:
     return [f"{end}: {why}" for end, why in ends]
 
 
-def parameters_markdown(bus_limits: BusLimits) -> str:
+_HEADER = ["| MAVLink | Config key | Unit | Range | Default | Description |", "|---|---|---|---|---|---|"]
+
+
+def _row(key: str, meta: Param, section: str, lo: float, hi: float, default: str, b: _Bounds | None) -> str:
+    row = (
+        f"`{meta.mavlink}`" if meta.mavlink else "-",
+        f"`{section.replace('{profile}', '<profile>')}.{key}`",
+        meta.unit or "-",
+        _range_cell(lo, hi, _notes(meta, b)),
+        default,
+        meta.desc,
+    )
+    return "| " + " | ".join(_cell(c) for c in row) + " |"
+
+
+def parameters_markdown(bus_limits: BusLimits, more: Sequence[tuple[str, Any]] = ()) -> str:
     """``docs/parameters.md``: every declared setting of the parameter table's sections, one Markdown table
     per section (MAVLink name, config key, unit, range, default, description), with the defaults of
-    :class:`CoreConfig` and the DBC ranges ``bus_limits``."""
+    :class:`CoreConfig` and the DBC ranges ``bus_limits``; then the tables ``more`` (``(table name, its
+    default dataclass)``, e.g. the app's ``[mavlink]``), which have no MAVLink parameter."""
     defaults = CoreConfig()
     profiles: tuple[ProfileName, ...] = ("improved", "paper")
     configs = {
@@ -340,41 +358,30 @@ def parameters_markdown(bus_limits: BusLimits) -> str:
     }
     out = [_PAGE_HEAD]
     for section in SECTIONS:
-        config = configs[defaults.control.profile]
         path = section.format(profile=defaults.control.profile)
-        leaf = _get(config, path)
+        leaf = _get(defaults, path)
         if "{profile}" in section:
             title = " and ".join(f"`[{section.format(profile=p)}]`" for p in profiles)
             title += ": the PD gains of the active profile"
         else:
             title = f"`[{path}]`"
-        out += [
-            f"## {title}",
-            "",
-            "| MAVLink | Config key | Unit | Range | Default | Description |",
-            "|---|---|---|---|---|---|",
-        ]
+        out += [f"## {title}", "", *_HEADER]
         for key, meta in declared(type(leaf)):
-            b = _bounds(_BY_NAME[meta.mavlink], config, bus_limits) if meta.mavlink is not None else None
+            b = _bounds(_BY_NAME[meta.mavlink], defaults, bus_limits) if meta.mavlink is not None else None
             lo, hi = (b.spec.min, b.spec.max) if b is not None else declared_bounds(leaf, key)
-            if "{profile}" in section:
-                values = {p: getattr(_get(configs[p], section.format(profile=p)), key) for p in profiles}
-                default = (
-                    " / ".join(f"{v:g} ({p})" for p, v in values.items())
-                    if len(set(values.values())) > 1
-                    else f"{values[profiles[0]]:g}"
-                )
-            else:
-                default = f"{getattr(leaf, key):g}"
-            row = (
-                f"`{meta.mavlink}`" if meta.mavlink else "-",
-                f"`{section.replace('{profile}', '<profile>')}.{key}`",
-                meta.unit or "-",
-                _range_cell(lo, hi, _notes(meta, b)),
-                default,
-                meta.desc,
+            values = {p: getattr(_get(configs[p], section.format(profile=p)), key) for p in profiles}
+            default = (
+                " / ".join(f"{v:g} ({p})" for p, v in values.items())
+                if len(set(values.values())) > 1
+                else f"{getattr(leaf, key):g}"
             )
-            out.append("| " + " | ".join(_cell(c) for c in row) + " |")
+            out.append(_row(key, meta, section, lo, hi, default, b))
+        out.append("")
+    for path, table in more:
+        out += [f"## `[{path}]`", "", *_HEADER]
+        for key, meta in declared(type(table)):
+            lo, hi = declared_bounds(table, key)
+            out.append(_row(key, meta, path, lo, hi, f"{getattr(table, key):g}", None))
         out.append("")
     return "\n".join(out)
 

@@ -10,15 +10,20 @@ Example::
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from auv_common.config import ConfigError, from_table, require
+from auv_common.config import Bound, ConfigError, check_declared, from_table, param, require
 
 ENDPOINT_KINDS = ("udpout", "udpin", "tcpin")
+#: A telemetry rate's maximum: 100 Hz, and no more than the link's ``max_stream_rate_hz``.
+_RATE_MAX = Bound(lambda c: min(100.0, c.max_stream_rate_hz), "the smaller of 100 and max_stream_rate_hz")
+
+
+def _rate(default_hz: float, what: str) -> Any:
+    return param(default_hz, unit="Hz", min=0.0, max=_RATE_MAX, desc=f"{what} rate (0 = off)")
 
 
 def parse_endpoint(spec: str) -> tuple[str, str, int]:
@@ -50,43 +55,71 @@ class MavlinkConfig:
 
     enabled: bool = True
     endpoints: tuple[str, ...] = ("udpout:127.0.0.1:14550",)
-    system_id: int = 1
-    component_id: int = 1  # MAVSDK ignores autopilots with another component id
-    heartbeat_rate_hz: float = 1.0
-    position_rate_hz: float = 5.0  # LOCAL_POSITION_NED
-    attitude_rate_hz: float = 10.0  # ATTITUDE
-    nav_rate_hz: float = 5.0  # NAV_CONTROLLER_OUTPUT
-    actuator_rate_hz: float = 5.0  # ACTUATOR_OUTPUT_STATUS
-    sys_status_rate_hz: float = 1.0  # SYS_STATUS
-    mission_current_rate_hz: float = 1.0  # MISSION_CURRENT
-    home_rate_hz: float = 0.2  # HOME_POSITION and GPS_GLOBAL_ORIGIN
-    gcs_timeout_s: float = 5.0
+    system_id: int = param(1, min=1, max=255, desc="MAVLink system id of the vehicle")
+    component_id: int = param(1, min=1, max=255, desc="MAVLink component id (MAVSDK wants 1)")
+    heartbeat_rate_hz: float = _rate(1.0, "HEARTBEAT")
+    position_rate_hz: float = _rate(5.0, "LOCAL_POSITION_NED")
+    attitude_rate_hz: float = _rate(10.0, "ATTITUDE")
+    nav_rate_hz: float = _rate(5.0, "NAV_CONTROLLER_OUTPUT")
+    actuator_rate_hz: float = _rate(5.0, "ACTUATOR_OUTPUT_STATUS")
+    sys_status_rate_hz: float = _rate(1.0, "SYS_STATUS")
+    mission_current_rate_hz: float = _rate(1.0, "MISSION_CURRENT")
+    home_rate_hz: float = _rate(0.2, "HOME_POSITION and GPS_GLOBAL_ORIGIN")
+    gcs_timeout_s: float = param(
+        5.0, unit="s", min=0.5, max=3600.0, desc="no ground-station HEARTBEAT for this long: gcs_loss_action"
+    )
     gcs_loss_action: Literal["continue", "hold", "surface"] = "continue"
-    origin_lat_deg: float = 35.1
-    origin_lon_deg: float = 129.04
-    origin_alt_m: float = 0.0  # AMSL altitude of the local origin (the sea surface)
-    item_timeout_s: float = 0.25  # re-request a missing mission item after this
+    origin_lat_deg: float = param(35.1, unit="deg", min=-90.0, max=90.0, desc="latitude of the local origin")
+    origin_lon_deg: float = param(
+        129.04, unit="deg", min=-180.0, max=180.0, desc="longitude of the local origin"
+    )
+    origin_alt_m: float = param(0.0, unit="m", desc="AMSL altitude of the local origin (the sea surface)")
+    item_timeout_s: float = param(
+        0.25, unit="s", min=0.01, max=10.0, desc="re-request a missing mission item after this"
+    )
     upload_timeout_s: float = 5.0  # give up an upload after this long without progress
-    validate_timeout_s: float = 3.0  # a mission check (worker thread) that takes longer refuses the upload
-    command_timeout_s: float = 1.0  # a command the loop has not taken by then: TEMPORARILY_REJECTED
+    validate_timeout_s: float = param(
+        3.0, unit="s", min=0.1, max=60.0,
+        desc="a mission check (worker thread) that takes longer refuses the upload",
+    )  # fmt: skip
+    command_timeout_s: float = param(
+        1.0, unit="s", min=0.05, max=30.0,
+        desc="a command the loop has not taken by then: TEMPORARILY_REJECTED",
+    )  # fmt: skip
     state_dir: str = ""  # empty = default_state_dir()
     signing_key_file: str = ""  # empty = signing off; 32 raw bytes or 64 hex characters
     #: endpoints (of ``endpoints``) over which SETUP_SIGNING is taken without a signature (a secure link:
     #: a USB serial, a loopback only the vehicle's computer reaches); elsewhere it must be signed
     secure_endpoints: tuple[str, ...] = ()
-    signing_link_id: int = 0
-    rx_peer_per_s: int = 500  # datagrams (TCP: messages) parsed per second per known peer; the rest shed
-    rx_strangers_per_s: int = 200  # the same, shared by every address not (yet) a known peer
+    signing_link_id: int = param(0, min=0, max=255, desc="link id of the signatures the vehicle sends")
+    rx_peer_per_s: int = param(
+        500, unit="1/s", min=10, max=1_000_000,
+        desc="datagrams (TCP: messages) parsed per second per known peer; the rest shed",
+    )  # fmt: skip
+    rx_strangers_per_s: int = param(
+        200, unit="1/s", min=10, max=1_000_000,
+        desc="the same, shared by every address not (yet) a known peer",
+    )  # fmt: skip
     #: per link: a SET_MESSAGE_INTERVAL asks for at most this rate (faster requests are clamped to it)
-    max_stream_rate_hz: float = 50.0
+    max_stream_rate_hz: float = param(
+        50.0, unit="Hz", min=1.0, max=100.0, desc="a SET_MESSAGE_INTERVAL asks for at most this rate"
+    )
     #: per link: messages sent per second to one peer (its output budget; strangers share one); the rest
     #: is dropped (counted as ``tx_shed``), so what one peer asks for never costs another its telemetry
-    tx_peer_per_s: int = 2000
+    tx_peer_per_s: int = param(
+        2000, unit="1/s", min=10, max=1_000_000,
+        desc="messages sent per second to one peer (its output budget)",
+    )  # fmt: skip
     #: a TCP connection that sends no MAVLink message for this long is closed
-    tcp_idle_timeout_s: float = 20.0
+    tcp_idle_timeout_s: float = param(
+        20.0, unit="s", min=1.0, max=3600.0, desc="a TCP connection silent for this long is closed"
+    )
     #: when the connection table is full, the longest-silent connection gives way to a new one if it has
     #: been silent this long (a live ground station sends its HEARTBEAT every second, so it is kept)
-    tcp_evict_idle_s: float = 3.0
+    tcp_evict_idle_s: float = param(
+        3.0, unit="s", min=0.5, max=Bound(lambda c: c.tcp_idle_timeout_s, "tcp_idle_timeout_s"),
+        desc="connection table full: a connection silent this long gives way to a new one",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         require(len(self.endpoints) >= 1 or not self.enabled, "endpoints: at least one when enabled")
@@ -94,65 +127,10 @@ class MavlinkConfig:
             parse_endpoint(spec)
         for spec in self.secure_endpoints:
             require(spec in self.endpoints, f"secure_endpoints: {spec!r} is not one of endpoints")
-        require(1 <= self.system_id <= 255, f"system_id must be 1..255, got {self.system_id}")
-        require(1 <= self.component_id <= 255, f"component_id must be 1..255, got {self.component_id}")
-        for name in (
-            "heartbeat_rate_hz",
-            "position_rate_hz",
-            "attitude_rate_hz",
-            "nav_rate_hz",
-            "actuator_rate_hz",
-            "sys_status_rate_hz",
-            "mission_current_rate_hz",
-            "home_rate_hz",
-        ):
-            v = getattr(self, name)
-            require(0.0 <= v <= 100.0, f"{name} must be within 0..100 Hz, got {v}")
-            require(
-                v <= self.max_stream_rate_hz,
-                f"{name} ({v} Hz) must not exceed max_stream_rate_hz ({self.max_stream_rate_hz} Hz)",
-            )
-        require(
-            1.0 <= self.max_stream_rate_hz <= 100.0,
-            f"max_stream_rate_hz must be within 1..100 Hz, got {self.max_stream_rate_hz}",
-        )
-        require(10 <= self.tx_peer_per_s <= 1_000_000, f"tx_peer_per_s out of range: {self.tx_peer_per_s}")
-        require(
-            1.0 <= self.tcp_idle_timeout_s <= 3600.0,
-            f"tcp_idle_timeout_s must be 1..3600, got {self.tcp_idle_timeout_s}",
-        )
-        require(
-            0.5 <= self.tcp_evict_idle_s <= self.tcp_idle_timeout_s,
-            f"tcp_evict_idle_s must be within 0.5..tcp_idle_timeout_s, got {self.tcp_evict_idle_s}",
-        )
-        require(
-            0.5 <= self.gcs_timeout_s <= 3600.0, f"gcs_timeout_s must be 0.5..3600, got {self.gcs_timeout_s}"
-        )
-        require(-90.0 <= self.origin_lat_deg <= 90.0, f"origin_lat_deg out of range: {self.origin_lat_deg}")
-        require(-180.0 <= self.origin_lon_deg <= 180.0, f"origin_lon_deg out of range: {self.origin_lon_deg}")
-        require(math.isfinite(self.origin_alt_m), "origin_alt_m must be finite")
-        require(
-            0.01 <= self.item_timeout_s <= 10.0, f"item_timeout_s must be 0.01..10, got {self.item_timeout_s}"
-        )
+        check_declared(self)
         require(
             self.item_timeout_s < self.upload_timeout_s <= 600.0,
             f"upload_timeout_s must exceed item_timeout_s and be <= 600, got {self.upload_timeout_s}",
-        )
-        require(
-            0.1 <= self.validate_timeout_s <= 60.0,
-            f"validate_timeout_s must be 0.1..60, got {self.validate_timeout_s}",
-        )
-        require(
-            0.05 <= self.command_timeout_s <= 30.0,
-            f"command_timeout_s must be 0.05..30, got {self.command_timeout_s}",
-        )
-        require(
-            0 <= self.signing_link_id <= 255, f"signing_link_id must be 0..255, got {self.signing_link_id}"
-        )
-        require(10 <= self.rx_peer_per_s <= 1_000_000, f"rx_peer_per_s out of range: {self.rx_peer_per_s}")
-        require(
-            10 <= self.rx_strangers_per_s <= 1_000_000,
-            f"rx_strangers_per_s out of range: {self.rx_strangers_per_s}",
         )
 
     @classmethod
