@@ -107,7 +107,7 @@ def test_actuator_limit_ranges_are_within_the_dbc() -> None:
 
 
 def test_bounds_come_from_the_dataclass_rules() -> None:
-    # closed rule (mission arrival radius in [0.1, 50]) and an integer count (1..20), read by trying values
+    # closed rule (mission arrival radius in [0.1, 50]) and an integer count (1..20), declared
     assert (_spec("MIS_ARRIVE_R_M").min, _spec("MIS_ARRIVE_R_M").max) == (ARRIVAL_RADIUS_MIN_M, 50.0)
     assert (_spec("MIS_MAX_TRIES").min, _spec("MIS_MAX_TRIES").max) == (1.0, 20.0)
     assert _spec("FS_ABORT_STN_DEG").max == 45.0

@@ -127,3 +127,30 @@ def test_the_config_loader_checks_every_declared_range() -> None:
                 checked += 1
             assert meta.desc, key
     assert checked >= 80  # every finite bound of every declared key (the gains have an operator range only)
+
+
+def test_the_table_reads_its_ranges_without_trying_values(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No bisection: the ranges are read from the declarations, no value is tried on a dataclass (a
+    configuration never seen before, so no cache answers either)."""
+    c = CoreConfig()
+    limits = dataclasses.replace(c.control.limits, rudder_limit_deg=21.5, propeller_min_rps=2.0)
+    improved = dataclasses.replace(c.control.improved, Kp1=2.5)
+    config = dataclasses.replace(
+        c,
+        control=dataclasses.replace(c.control, limits=limits, improved=improved),
+        planner=dataclasses.replace(c.planner, turning_radius_m=3.5, weight_yaw=0.5),
+        guidance=dataclasses.replace(c.guidance, speed_mps=1.1, min_water_speed_mps=0.4),
+        mission=dataclasses.replace(c.mission, arrival_radius_m=0.6),
+        failsafe=dataclasses.replace(c.failsafe, max_depth_m=11.0),
+    )
+
+    def no_tries(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the parameter table tried a value on the configuration")
+
+    monkeypatch.setattr(dataclasses, "replace", no_tries)
+    table = {s.name: s for s in param_table(config, BUS)}
+    assert (table["LIM_RUDDER_DEG"].default, table["LIM_RUDDER_DEG"].min) == (21.5, 1.0)
+    assert table["LIM_RPS_MAX"].min == 3.0  # propeller_min_rps + 1, with the values in force
+    assert table["PLN_W_D"].min == 0.0  # another weight carries the scale
+    assert table["GDE_SPEED_MPS"].min == 0.4  # the steerage way
+    assert table["PD_KP1"].default == 2.5 and table["MIS_ARRIVE_R_M"].default == 0.6
