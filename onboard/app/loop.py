@@ -6,7 +6,8 @@ pure code in :mod:`onboard.core.autopilot`); encode and send the commands; recor
 
 - real time (:meth:`run_realtime`): ticks scheduled against deadlines (``next += period``, never
   ``sleep(period)``), a hybrid wait (sleep until ``spin_s`` before the deadline, then spin), overruns and
-  wake-up lateness counted;
+  wake-up lateness counted (:meth:`LoopStats.end_tick`, the one overrun count: SYS_STATUS, the telemetry
+  rows, the summary and the overrun failsafe's lateness all read it);
 - lock-step (:meth:`run_lockstep`): exactly one tick per SYNC frame from the bench, ``now_s`` = the SYNC's
   simulated time; frames that arrived since the previous SYNC are stamped with it; the answer is the command
   frames and then a SYNC_ACK echoing the tick. No wall clock is read for control, so runs repeat exactly.
@@ -101,7 +102,11 @@ class Autopilot(Protocol):
 
 @dataclass
 class LoopStats:
-    """Counters and timings the loop keeps (the benchmark and telemetry read them)."""
+    """Counters and timings the loop keeps (the benchmark and telemetry read them).
+
+    The one owner of the overrun count and of the loop's load: every loop that ticks against deadlines
+    (:class:`ControlLoop`, the stand-alone vehicle) accounts each tick with :meth:`end_tick`.
+    """
 
     ticks: int = 0
     overruns: int = 0
@@ -119,6 +124,33 @@ class LoopStats:
     encode_burst: int = 0
     lateness_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
     compute_s: deque[float] = field(default_factory=lambda: deque(maxlen=100_000))
+    #: the busy share of the latest tick's period (its work over the period; > 1 when it overran): MAVLink
+    #: SYS_STATUS ``load`` in per mille; NaN before the first tick
+    load: float = math.nan
+    #: the first deadline missed by the current run of overruns (None: on time)
+    late_since_s: float | None = None
+
+    def note_busy(self, busy_s: float, period_s: float) -> None:
+        """One tick's work took ``busy_s`` (s) of its ``period_s`` (s): the load."""
+        self.load = busy_s / period_s
+
+    def end_tick(self, end_s: float, deadline_s: float) -> float:
+        """A tick ended at ``end_s`` (s), its next deadline at ``deadline_s``: an overrun if after it.
+
+        Returns how long the loop has been behind its schedule continuously (s, 0 = on time): from the first
+        deadline the current run of overruns missed to ``end_s`` (what the overrun failsafe judges)."""
+        if end_s <= deadline_s:
+            self.consecutive_overruns = 0
+            self.late_since_s = None
+            return 0.0
+        self.overruns += 1
+        self.consecutive_overruns += 1
+        self.max_consecutive_overruns = max(self.max_consecutive_overruns, self.consecutive_overruns)
+        if self.late_since_s is None:
+            self.late_since_s = deadline_s
+        late_s = end_s - self.late_since_s
+        self.max_late_s = max(self.max_late_s, late_s)
+        return late_s
 
     def note_encode_error(self, message_name: str) -> bool:
         """Count one frame that did not encode; True if it starts a burst (the one to log)."""
@@ -257,6 +289,7 @@ class ControlLoop:
         self._record(out, now_s)
         if self.on_tick is not None:
             self.on_tick(out, now_s)
+        self.stats.note_busy(time.perf_counter() - t_compute, self.config.period_s)
         return out
 
     def _record(self, out: AutopilotOutput, now_s: float) -> None:
@@ -287,7 +320,6 @@ class ControlLoop:
         """Tick against deadlines on the monotonic clock until ``stop`` is set."""
         period = self.config.period_s
         next_s = self.clock()
-        late_since_s: float | None = None  # the first deadline missed by the current run of overruns
         while not stop.is_set():
             self._wait_until(next_s, stop)
             if stop.is_set():
@@ -297,25 +329,12 @@ class ControlLoop:
             self.take(self.port.drain())
             self.tick(now)
             next_s += period
-            end_s = self.clock()
-            if end_s > next_s:
-                self.stats.overruns += 1
-                self.stats.consecutive_overruns += 1
-                self.stats.max_consecutive_overruns = max(
-                    self.stats.max_consecutive_overruns, self.stats.consecutive_overruns
-                )
-                if late_since_s is None:
-                    late_since_s = next_s
-                late_s = end_s - late_since_s
-                self.stats.max_late_s = max(self.stats.max_late_s, late_s)
-                self.autopilot.note_loop_late(late_s)
+            late_s = self.stats.end_tick(self.clock(), next_s)
+            self.autopilot.note_loop_late(late_s)
+            if late_s > 0.0:
                 while next_s < self.clock():  # skip the deadlines already missed, keep the phase
                     next_s += period
                     self.stats.missed_deadlines += 1
-            else:
-                self.stats.consecutive_overruns = 0
-                late_since_s = None
-                self.autopilot.note_loop_late(0.0)
 
     def run_lockstep(self, stop: threading.Event, idle_timeout_s: float | None = None) -> None:
         """One tick per SYNC frame until ``stop`` is set (or no SYNC for ``idle_timeout_s``)."""

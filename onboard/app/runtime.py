@@ -511,7 +511,7 @@ def _bridge(loop: ControlLoop, autopilot: Autopilot, link: Any, flight: FlightLo
         bridge.before_tick(autopilot, link)
 
     def after(out: Any, now_s: float) -> None:  # the StepOutput of the real autopilot
-        bridge.after_tick(autopilot, link, out, now_s, stats.overruns)
+        bridge.after_tick(autopilot, link, out, now_s, stats.overruns, stats.load)
 
     loop.before_tick = before
     loop.on_tick = after

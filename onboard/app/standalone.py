@@ -38,6 +38,7 @@ from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
 from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import load_config
+from onboard.app.loop import LoopStats
 from onboard.app.planning import PlanWorker
 from onboard.app.runtime import build_link, mission_validator, resolve_boot
 from onboard.core import commands as core
@@ -135,7 +136,7 @@ class SimpleVehicle:
         self.period_s = 1.0 / rate_hz
         self.plans = PlanWorker(autopilot, lockstep=True)
         self.t_s = 0.0
-        self.overruns = 0
+        self.stats = LoopStats()  # the overrun count and the load, accounted as the control loop does
         self._r = self._w = 0.0
         mission = link.mission()
         if mission.goals or mission.obstacles:
@@ -145,7 +146,10 @@ class SimpleVehicle:
                 autopilot.restore_progress(progress)
             autopilot.take_notes()
 
-    def tick(self) -> None:
+    def tick(self, period_s: float | None = None) -> None:
+        """One tick of simulated ``period_s`` (s); ``period_s``: the wall time it may take (default: the
+        simulated period), which the load is the busy share of."""
+        t_busy = time.perf_counter()
         ap, dt = self.ap, self.period_s
         cache = self.plant.sensors(self.t_s, self._r, self._w)
         bridge.before_tick(ap, self.link)
@@ -153,23 +157,24 @@ class SimpleVehicle:
         self.plans.before_step()
         out = ap.step(cache, self.t_s, dt)
         self.plans.after_step()
-        bridge.after_tick(ap, self.link, out, self.t_s, self.overruns)
+        bridge.after_tick(ap, self.link, out, self.t_s, self.stats.overruns, self.stats.load)
         self._r, self._w = self.plant.advance(out.command, dt)
         self.t_s += dt
+        self.stats.ticks += 1
+        self.stats.note_busy(time.perf_counter() - t_busy, period_s or dt)
 
     def run(self, stop: threading.Event, time_scale: float = 1.0) -> None:
         wall_period = self.period_s / time_scale
         nxt = time.monotonic()
         try:
             while not stop.is_set():
-                self.tick()
+                self.tick(wall_period)
                 nxt += wall_period
-                delay = nxt - time.monotonic()
-                if delay > 0:
-                    stop.wait(delay)
+                end_s = time.monotonic()
+                if self.stats.end_tick(end_s, nxt) > 0.0:
+                    nxt = end_s  # behind: the schedule starts again from now
                 else:
-                    self.overruns += 1
-                    nxt = time.monotonic()
+                    stop.wait(nxt - end_s)
         finally:
             self.plans.close()
 

@@ -44,10 +44,17 @@ def before_tick(autopilot: Autopilot, link: Link) -> None:
         link.answer(req.id, verdict)
 
 
-def after_tick(autopilot: Autopilot, link: Link, out: StepOutput, now_s: float, overruns: int = 0) -> None:
+def after_tick(
+    autopilot: Autopilot,
+    link: Link,
+    out: StepOutput,
+    now_s: float,
+    overruns: int = 0,
+    loop_load: float = math.nan,
+) -> None:
     """The core's notes, then the snapshot of this tick."""
     link.notify(autopilot.take_notes())
-    link.publish(snapshot(autopilot, out, now_s, overruns))
+    link.publish(snapshot(autopilot, out, now_s, overruns, loop_load))
 
 
 def status_fields(autopilot: Any) -> dict[str, Any]:
@@ -68,7 +75,9 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
     }
 
 
-def snapshot(ap: Autopilot, out: StepOutput, now_s: float, overruns: int = 0) -> api.VehicleSnapshot:
+def snapshot(
+    ap: Autopilot, out: StepOutput, now_s: float, overruns: int = 0, loop_load: float = math.nan
+) -> api.VehicleSnapshot:
     """The telemetry snapshot of one tick."""
     n, r, c = out.nav, out.reference, out.command
     nan = math.nan
@@ -107,6 +116,7 @@ def snapshot(ap: Autopilot, out: StepOutput, now_s: float, overruns: int = 0) ->
         propeller_saturated=bool(c.flags & ActuatorFlag.PROPELLER_LIMIT),
         failsafe=out.status.reason if out.status.state is MissionState.ABORT else None,
         overruns=overruns,
+        loop_load=loop_load,
         path=ap.path,
         path_kind=ap.path_kind if ap.path is not None else "",
         path_goal_index=ap.path_goal_index if ap.path is not None else -1,

@@ -360,7 +360,8 @@ class Telemetry:
             acts = [s.rudder_rad, s.stern_port_rad, s.stern_starboard_rad, s.propeller_rps]
             m = mavlink.MAVLink_actuator_output_status_message(usec, 4, [*acts, *([0.0] * 28)])
         elif msg_id == mavlink.MAVLINK_MSG_ID_SYS_STATUS:
-            load = _i(s.loop_load * 1000.0, 0, 65535)
+            # the loop's busy share of its period (LoopStats.load), in MAVLink's per mille, at most 1000
+            load = _i(s.loop_load * 1000.0, 0, 1000)
             errors = self._error_count()
             present, enabled, health = self._sensor_bits(s)
             if self._storage_problem is not None:  # LOGGING: the state directory (saving) works
