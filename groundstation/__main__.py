@@ -20,44 +20,36 @@ result and the reason likewise. ``--json`` lines carry ``result`` and ``reason``
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import random
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import common as mavlink
-from rich.text import Text
 
+from groundstation import fly, mission_files
 from groundstation import map as gcs_map
-from groundstation import mission_files
-from groundstation.mavclient import (
-    MAV_STATE_NAMES,
-    CommandAck,
-    Item,
-    LinkError,
-    MavClient,
-    TransferResult,
-    UnknownParameter,
-    state_from_heartbeat,
+from groundstation.command_client import CommandAck
+from groundstation.ftp_client import FtpClient
+from groundstation.link import Link, LinkError
+from groundstation.mavclient import MavClient
+from groundstation.messages import MAV_STATE_NAMES, state_from_heartbeat
+from groundstation.mission_client import Item, MissionClient
+from groundstation.output import (
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    EXIT_NOT_NOW,
+    EXIT_OK,
+    EXIT_REFUSED,
+    EXIT_STATUS,
+    Out,
+    exit_code_of_command,
 )
+from groundstation.param_client import ParamClient, UnknownParameter
 from groundstation.text import labelled, lines, plain
 
-if TYPE_CHECKING:
-    from rich.progress import Progress
-
-EXIT_OK, EXIT_REFUSED, EXIT_ERROR, EXIT_NOT_NOW, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-EXIT_STATUS = """exit status:
-  0    accepted / done (fly: COMPLETE)
-  1    refused by the vehicle: MAV_RESULT_DENIED, _FAILED, _UNSUPPORTED, or a MAV_MISSION_* error;
-       fly: also the vehicle stopped short of COMPLETE (ABORT, HOLD, disarmed)
-       (the vehicle's reason is printed, and is the "reason" of --json)
-  2    usage, file or link error (no heartbeat, no answer; logs: no such log on the vehicle)
-  3    temporarily rejected: MAV_RESULT_TEMPORARILY_REJECTED (valid, but not now, e.g. the navigation
-       is not valid yet: try again later), or wait-ready / fly not ready in time
-  130  interrupted (fly: HOLD sent if the mission had been started)"""
+_Out = Out  # the name the download handler's tests (tests/unit/app) construct
 FORCE_DISARM_MAGIC = 21196.0  # MAV_CMD_COMPONENT_ARM_DISARM param2: disarm even while running
 
 COMMANDS: dict[str, tuple[int, str]] = {
@@ -82,14 +74,6 @@ def command_params(args: argparse.Namespace) -> tuple[int, tuple[float, ...]]:
     if args.cmd in ("hold", "resume"):
         return cmd, (0.0 if args.cmd == "hold" else 1.0,)
     return cmd, ()
-
-
-def exit_code_of_command(result: int) -> int:
-    if result == mavlink.MAV_RESULT_ACCEPTED:
-        return EXIT_OK
-    if result == mavlink.MAV_RESULT_TEMPORARILY_REJECTED:
-        return EXIT_NOT_NOW
-    return EXIT_REFUSED
 
 
 def default_tlog_dir() -> Path:
@@ -195,38 +179,6 @@ def _parser() -> argparse.ArgumentParser:
     return ap
 
 
-class _Out:
-    def __init__(self, as_json: bool) -> None:
-        self.as_json = as_json
-        from rich.console import Console
-
-        self.console = Console(stderr=as_json, soft_wrap=True)  # a line is one line, however long
-
-    def done(self, data: dict[str, Any], text: str | Text) -> None:
-        """``data`` as a JSON line (``--json``), else ``text`` (:meth:`show`)."""
-        if self.as_json:
-            sys.stdout.write(json.dumps(data, default=str) + "\n")
-        else:
-            self.show(text)
-
-    def show(self, text: str | Text) -> None:
-        """``text`` on the console, never as markup: a ``str`` is one line, shown as it is but for the
-        control characters of the wire's words in it (:func:`groundstation.text.plain`); several lines and
-        styled parts come as rich Text (:mod:`groundstation.text`'s ``lines`` and ``labelled``)."""
-        self.console.print(text if isinstance(text, Text) else plain(text))
-
-    def progress(self) -> Progress:
-        """rich's progress bar, its description (a file name may be the vehicle's) never markup."""
-        from rich.progress import Progress, TextColumn
-
-        return Progress(
-            TextColumn("{task.description}", markup=False),
-            *Progress.get_default_columns()[1:],
-            console=self.console,
-            transient=True,
-        )
-
-
 def _load_key(path: Path | None) -> bytes | None:
     if path is None:
         return None
@@ -237,63 +189,6 @@ def _load_key(path: Path | None) -> bytes | None:
     if len(raw) == 32:
         return raw
     raise ValueError(f"{path}: a signing key is 32 raw bytes or 64 hex characters")
-
-
-def _upload(client: MavClient, out: _Out, items: list[Item], mission_type: int, label: str) -> dict[str, Any]:
-    r: TransferResult
-    if out.as_json or not items:
-        r = client.upload(items, mission_type)
-    else:
-        with out.progress() as prog:
-            task = prog.add_task(f"upload {label}", total=len(items))
-            r = client.upload(items, mission_type, progress=lambda done, n: prog.update(task, completed=done))
-    return {
-        "type": label,
-        "items": len(items),
-        "ok": r.ok,
-        "result": r.result_name,
-        "reason": r.reason,
-        "elapsed_s": r.elapsed_s,
-        "timeout": r.result < 0,
-    }
-
-
-def _upload_text(r: dict[str, Any]) -> str:
-    verdict = "accepted" if r["ok"] else "REFUSED"
-    why = f": {r['reason']}" if r["reason"] else ""
-    return f"{r['type']}: {r['items']} items {verdict} ({r['result']}{why}, {r['elapsed_s']:.3f} s)"
-
-
-def _upload_plans(
-    client: MavClient, out: _Out, goals: list[Item], fences: list[Item], with_goals: bool, with_fence: bool
-) -> tuple[list[dict[str, Any]], str]:
-    """Upload the goals, the fence, or both; returns the results (mission first) and, when any was not
-    accepted, a note on what is in force on the vehicle now (read back from it).
-
-    Both go in ONE transfer of type MAV_MISSION_TYPE_ALL (the goals, then the fence circles; the vehicle's
-    MAVLink profile, :mod:`onboard.adapters.mavlink.mission_protocol`): the vehicle judges them as one unit
-    and puts both in force or, refused, neither, so a refused upload changes nothing, also while the vehicle
-    runs (two transfers would put the first in force before the second is judged). The one verdict is
-    reported for each part.
-    """
-    results: list[dict[str, Any]]
-    if with_goals and with_fence:
-        r = _upload(client, out, goals + fences, mavlink.MAV_MISSION_TYPE_ALL, "mission and fence")
-        results = [dict(r, type="mission", items=len(goals)), dict(r, type="fence", items=len(fences))]
-    elif with_fence:
-        results = [_upload(client, out, fences, mavlink.MAV_MISSION_TYPE_FENCE, "fence")]
-    elif with_goals:
-        results = [_upload(client, out, goals, mavlink.MAV_MISSION_TYPE_MISSION, "mission")]
-    else:
-        return [], ""
-    if all(r["ok"] for r in results):
-        return results, ""
-    try:
-        n_goals = len(client.download(mavlink.MAV_MISSION_TYPE_MISSION))
-        n_fence = len(client.download(mavlink.MAV_MISSION_TYPE_FENCE))
-    except LinkError as exc:
-        return results, f"what is in force on the vehicle could not be read back: {exc}"
-    return results, f"in force on the vehicle: {n_goals} mission items, {n_fence} fence circles"
 
 
 def _session_tlog(tlog_dir: Path) -> Path:
@@ -330,7 +225,7 @@ def own_system_id() -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    out = _Out(args.json)
+    out = Out(args.json)
     if args.cmd == "plot":
         from groundstation.plot import plot_tlog
 
@@ -357,8 +252,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         system_id = args.system_id if args.system_id is not None else own_system_id()
         if args.cmd == "map":  # serves until stopped; it opens the link itself (a --tlog replay opens none)
-            link = lambda: MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id)  # noqa: E731
-            return gcs_map.run(args, link, out.done)
+
+            def connect() -> MavClient:
+                return MavClient(args.connect, tlog=tlog, signing_key=key, system_id=system_id)
+
+            return gcs_map.run(args, connect, out.done)
         session = args.cmd in SESSIONS  # GCS heartbeats (watched by the vehicle) only from a session
         with MavClient(
             args.connect, tlog=tlog, signing_key=key, system_id=system_id, gcs_session=session
@@ -386,64 +284,21 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(
-    args: argparse.Namespace, client: MavClient, out: _Out, goals: list[Item], fences: list[Item], tlog: Path
+    args: argparse.Namespace, client: MavClient, out: Out, goals: list[Item], fences: list[Item], tlog: Path
 ) -> int:
+    """The sub-command ``args.cmd`` over a link that heard the vehicle: each to its client's handler."""
     if args.cmd in ("upload", "fence"):
-        with_fence = bool(fences) or args.cmd == "fence"
-        results, note = _upload_plans(client, out, goals, fences, args.cmd == "upload", with_fence)
-        ok = all(r["ok"] for r in results)
-        refused = next((r for r in results if not r["ok"]), None)
-        text = lines([*map(_upload_text, results), *([note] if note else [])])
-        data = {
-            "ok": ok,
-            "result": refused["result"] if refused else "MAV_MISSION_ACCEPTED",
-            "reason": refused["reason"] if refused else "",
-            "results": results,
-            "in_force": note,
-            "tlog": str(tlog),
-        }
-        out.done(data, text)
-        if ok:
-            return EXIT_OK
-        return EXIT_ERROR if refused and refused["timeout"] else EXIT_REFUSED
+        return _upload(args, client.mission, out, goals, fences, tlog)
     if args.cmd == "download":
-        g = client.download(mavlink.MAV_MISSION_TYPE_MISSION)
-        f = client.download(mavlink.MAV_MISSION_TYPE_FENCE)
-        fmt = args.format or mission_files.format_for(args.file)
-        text = mission_files.dump(fmt, g, f)  # home: the vehicle's placeholder if it holds one (to_plan)
-        if args.file:
-            try:
-                args.file.write_text(text, encoding="utf-8")
-            except OSError as exc:
-                why = f"cannot write {args.file}: {exc.strerror or exc}"
-                out.done({"ok": False, "error": why}, labelled("error:", "red", why))
-                return EXIT_ERROR
-        data = {
-            "ok": True,
-            "goals": len(g),
-            "obstacles": len(f),
-            "file": str(args.file) if args.file else None,
-            "format": fmt,
-        }
-        if args.json and not args.file:
-            import yaml
-
-            data["mission"] = yaml.safe_load(mission_files.to_yaml(g, f))
-            if fmt != "yaml":
-                data["text"] = text
-        if args.file or args.json:
-            out.done(data, f"wrote {args.file} ({fmt})")
-        else:
-            sys.stdout.write(text)  # the file's text as it is: no rich markup or wrapping, for a redirect
-        return 0
+        return _download(args, client.mission, out)
     if args.cmd == "clear":
-        r = client.clear(mavlink.MAV_MISSION_TYPE_ALL)
+        r = client.mission.clear(mavlink.MAV_MISSION_TYPE_ALL)
         why = f": {r.reason}" if r.reason else ""
         out.done({"ok": r.ok, "result": r.result_name, "reason": r.reason}, f"clear: {r.result_name}{why}")
         return EXIT_OK if r.ok else EXIT_REFUSED
     if args.cmd in COMMANDS:
         cmd, params = command_params(args)
-        ack: CommandAck = client.command_ack(cmd, *params)
+        ack: CommandAck = client.commands.command_ack(cmd, *params)
         data = {
             "ok": ack.ok,
             "command": args.cmd,
@@ -454,11 +309,11 @@ def _run(
         out.done(data, f"{args.cmd}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else ""))
         return exit_code_of_command(ack.result)
     if args.cmd == "params":
-        return _params(args, client, out)
+        return _params(args, client.params, client, out)
     if args.cmd == "fly":
-        return _fly(args, client, out, goals, fences, tlog)
+        return fly.run(client, out, goals, fences, ready_timeout_s=args.ready_timeout, tlog=tlog)
     if args.cmd == "logs":
-        return _logs(args, client, out)
+        return _logs(args, client.ftp, out)
     if args.cmd == "monitor":
         from groundstation.monitor import monitor
 
@@ -467,77 +322,70 @@ def _run(
     return 2
 
 
-def _fly(
-    args: argparse.Namespace, client: MavClient, out: _Out, goals: list[Item], fences: list[Item], tlog: Path
+def _upload(
+    args: argparse.Namespace,
+    missions: MissionClient,
+    out: Out,
+    goals: list[Item],
+    fences: list[Item],
+    tlog: Path,
 ) -> int:
-    """``fly``: the file as the whole plan (an empty fence clears the old one), then ready, arm, start and
-    the watch (:mod:`groundstation.fly`)."""
-    from groundstation import fly
-
-    def stop(code: int, data: dict[str, Any], text: str | Text) -> int:
-        out.done({"event": "end", "tlog": str(tlog), **data}, text)
-        return code
-
-    results, note = _upload_plans(client, out, goals, fences, True, True)
+    """``upload`` and ``fence``: :func:`groundstation.fly.upload_plans`, its verdict and exit code."""
+    with_fence = bool(fences) or args.cmd == "fence"
+    results, note = fly.upload_plans(missions, out, goals, fences, args.cmd == "upload", with_fence)
+    ok = all(r["ok"] for r in results)
     refused = next((r for r in results if not r["ok"]), None)
-    if refused is not None:
-        why = f"upload {refused['type']}: {refused['result']}" + (
-            f": {refused['reason']}" if refused["reason"] else ""
-        )
-        code = EXIT_ERROR if refused["timeout"] else EXIT_REFUSED
-        text = why + (f" ({note})" if note else "")  # what is in force after the refusal, read back
-        return stop(
-            code, {"ok": False, "step": "upload", "reason": why, "in_force": note}, plain(text, "red")
-        )
-    if not out.as_json:
-        out.show(lines(map(_upload_text, results)))
-    ready, _hb, why = client.wait_ready(args.ready_timeout)
-    if not ready:
-        text = f"not ready after {args.ready_timeout:g} s" + (f": {why}" if why else "")
-        return stop(EXIT_NOT_NOW, {"ok": False, "step": "ready", "reason": text}, plain(text, "red"))
-    offset = 1 if mission_files.is_home_placeholder(goals) else 0
-    n_goals = len(goals) - offset
-    # the local goals' (x, y), for the distance to go (a global goal's origin is the vehicle's: None)
-    xy = [None if (ned := mission_files.local_ned(g, None)) is None else ned[:2] for g in goals[offset:]]
-    start_sent = False
-    try:
-        for step, (cmd, params) in (
-            ("arm", (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))),
-            ("start", (mavlink.MAV_CMD_MISSION_START, (0.0, 0.0))),
-        ):
-            start_sent = step == "start"
-            ack = client.command_ack(cmd, *params)
-            if not ack.ok:
-                text = f"{step}: {ack.result_name}" + (f": {ack.reason}" if ack.reason else "")
-                data = {"ok": False, "step": step, "result": ack.result_name, "reason": ack.reason}
-                return stop(exit_code_of_command(ack.result), data, plain(text, "red"))
-            if not out.as_json:
-                out.show(f"{step}: {ack.result_name}")
-        code, data = fly.watch(
-            client, n_goals, out.console, home_offset=offset, goal_xy_m=xy, as_json=out.as_json
-        )
-    except KeyboardInterrupt:
-        if not start_sent:  # nothing runs: the vehicle is at most armed, its propeller off
-            data = {"ok": False, "step": "interrupted", "hold": False, "reason": "before the start"}
-            return stop(EXIT_INTERRUPTED, data, "interrupted before the start: nothing sent after it")
+    text = lines([*map(fly.upload_text, results), *([note] if note else [])])
+    data = {
+        "ok": ok,
+        "result": refused["result"] if refused else "MAV_MISSION_ACCEPTED",
+        "reason": refused["reason"] if refused else "",
+        "results": results,
+        "in_force": note,
+        "tlog": str(tlog),
+    }
+    out.done(data, text)
+    if ok:
+        return EXIT_OK
+    return EXIT_ERROR if refused and refused["timeout"] else EXIT_REFUSED
+
+
+def _download(args: argparse.Namespace, missions: MissionClient, out: Out) -> int:
+    """``download``: the mission and fence, to a file in its format or to stdout."""
+    g = missions.download(mavlink.MAV_MISSION_TYPE_MISSION)
+    f = missions.download(mavlink.MAV_MISSION_TYPE_FENCE)
+    fmt = args.format or mission_files.format_for(args.file)
+    text = mission_files.dump(fmt, g, f)  # home: the vehicle's placeholder if it holds one (to_plan)
+    if args.file:
         try:
-            ok, answer = fly.hold(client)
-        except LinkError as exc:
-            ok, answer = False, str(exc)
-        text = f"interrupted: HOLD sent, the vehicle answered {answer}"
-        return stop(
-            EXIT_INTERRUPTED, {"ok": False, "step": "interrupted", "hold": ok, "reason": answer}, text
-        )
-    if code == EXIT_OK:
-        done = f"{n_goals} of {n_goals} goals reached"
-        return stop(code, {**data, "step": "done"}, labelled("COMPLETE:", "green", done))
-    text = f"{data['state']}: {data['reason'] or 'the vehicle stopped the mission'}"
-    return stop(code, {**data, "step": "watch"}, plain(text, "red"))
+            args.file.write_text(text, encoding="utf-8")
+        except OSError as exc:
+            why = f"cannot write {args.file}: {exc.strerror or exc}"
+            out.done({"ok": False, "error": why}, labelled("error:", "red", why))
+            return EXIT_ERROR
+    data = {
+        "ok": True,
+        "goals": len(g),
+        "obstacles": len(f),
+        "file": str(args.file) if args.file else None,
+        "format": fmt,
+    }
+    if args.json and not args.file:
+        import yaml
+
+        data["mission"] = yaml.safe_load(mission_files.to_yaml(g, f))
+        if fmt != "yaml":
+            data["text"] = text
+    if args.file or args.json:
+        out.done(data, f"wrote {args.file} ({fmt})")
+    else:
+        sys.stdout.write(text)  # the file's text as it is: no rich markup or wrapping, for a redirect
+    return 0
 
 
-def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
+def _logs(args: argparse.Namespace, files: FtpClient, out: Out) -> int:
     """``logs``: the flight logs in the vehicle's ``logs/`` over MAVLink FTP; ``get`` writes one whole."""
-    entries = [(name, size) for kind, name, size in client.list_dir("logs") if kind == "F"]
+    entries = [(name, size) for kind, name, size in files.list_dir("logs") if kind == "F"]
     if args.action is None:
         text = lines(f"{name}  {size / 1e6:.2f} MB" for name, size in entries) or "no flight logs"
         out.done({"ok": True, "logs": [{"name": n, "size": s} for n, s in entries]}, text)
@@ -557,11 +405,11 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
     if target.is_dir():
         target = target / name
     if out.as_json:
-        data = client.read_file(f"logs/{name}")
+        data = files.read_file(f"logs/{name}")
     else:
         with out.progress() as prog:
             task = prog.add_task(name, total=None)
-            data = client.read_file(
+            data = files.read_file(
                 f"logs/{name}", progress=lambda done, n: prog.update(task, completed=done, total=n)
             )
     try:
@@ -577,9 +425,9 @@ def _logs(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
     return EXIT_OK
 
 
-def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> int:
+def _wait_ready(link: Link, out: Out, timeout_s: float, t0: float) -> int:
     """``wait-ready``: exit 0 once HEARTBEAT system_status is not UNINIT / BOOT, else 3 at the timeout."""
-    ready, hb, why = client.wait_ready(timeout_s)
+    ready, hb, why = link.wait_ready(timeout_s)
     status = MAV_STATE_NAMES.get(int(hb.system_status), str(hb.system_status)) if hb is not None else "-"
     state = state_from_heartbeat(hb) if hb is not None else "-"
     armed = bool(hb is not None and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
@@ -600,9 +448,9 @@ def _wait_ready(client: MavClient, out: _Out, timeout_s: float, t0: float) -> in
     return EXIT_NOT_NOW
 
 
-def _params(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
+def _params(args: argparse.Namespace, params: ParamClient, link: Link, out: Out) -> int:
     if args.action is None:
-        values = client.param_list()
+        values = params.get_all()
         if args.json:
             out.done({"ok": True, "params": values}, "")
         else:
@@ -620,15 +468,15 @@ def _params(args: argparse.Namespace, client: MavClient, out: _Out) -> int:
         )
         return 2
     if args.action == "get":
-        v = client.param_get(args.name)
+        v = params.get(args.name)
         out.done({"ok": True, "name": args.name, "value": v}, f"{args.name} = {v:g}")
         return 0
     if args.value is None:
         out.done({"ok": False, "error": "value missing"}, labelled("error:", "red", "value missing"))
         return 2
     t_sent = time.monotonic()
-    ok, v = client.param_set(args.name, args.value)
-    why = "" if ok else client.reason_after(t_sent, time.monotonic())  # PARAM_SET has no ACK: its STATUSTEXT
+    ok, v = params.set(args.name, args.value)
+    why = "" if ok else link.reason_after(t_sent, time.monotonic())  # PARAM_SET has no ACK: its STATUSTEXT
     out.done(
         {"ok": ok, "name": args.name, "value": v, "reason": why},
         f"{args.name} = {v:g}" + ("" if ok else f" (refused {args.value:g}{': ' + why if why else ''})"),

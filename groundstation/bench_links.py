@@ -75,7 +75,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from auv_common.cli import run_one_section
 from auv_common.process import stop_process
 from groundstation.bench_upload import start_vehicle, stop_vehicle
-from groundstation.mavclient import Item, MavClient, state_from_heartbeat
+from groundstation.mavclient import MavClient
+from groundstation.messages import state_from_heartbeat
+from groundstation.mission_client import Item
 from groundstation.mission_files import goal_item
 
 GENUINE_SYSTEM_ID = 251

@@ -20,6 +20,7 @@ from pathlib import Path
 from auv_common.cli import run_one_section
 from auv_common.process import stop_process
 from groundstation.mavclient import MavClient
+from groundstation.mission_client import Item
 from groundstation.mission_files import goal_item
 from groundstation.relay import LossyRelay
 
@@ -63,7 +64,7 @@ def stop_vehicle(proc: subprocess.Popen[str]) -> None:
     stop_process(proc)
 
 
-def _goals(n: int, k: int) -> list:  # type: ignore[type-arg]
+def _goals(n: int, k: int) -> list[Item]:
     # goals 1 rad apart on a 10 m circle, depth alternating 1 / 1.5 m: every leg is flyable (the vehicle
     # checks the whole mission, planning each leg, before it accepts it)
     return [

@@ -12,7 +12,8 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
-from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.link import Link
+from groundstation.messages import state_from_heartbeat
 from groundstation.text import plain
 
 
@@ -32,7 +33,7 @@ def _table(s: dict[str, Any]) -> Table:
     return t
 
 
-def monitor(client: MavClient, console: Console, duration_s: float = 0.0, *, as_json: bool = False) -> None:
+def monitor(client: Link, console: Console, duration_s: float = 0.0, *, as_json: bool = False) -> None:
     """Show telemetry until interrupted or for ``duration_s``; ``as_json``: one JSON line per second."""
     s: dict[str, Any] = {"state": "?", "goal": "-", "failsafe / text": ""}
     t_end = time.monotonic() + duration_s if duration_s > 0 else math.inf

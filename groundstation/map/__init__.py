@@ -41,4 +41,4 @@ def run(
     """Serve the map until SIGINT / SIGTERM (:func:`groundstation.map.server.run`)."""
     from groundstation.map import server
 
-    return server.run(args, client_factory, done)
+    return server.run(args, client_factory, done, host=HOST)

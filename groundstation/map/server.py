@@ -44,7 +44,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from pymavlink.dialects.v20 import common as mavlink
 from rich.text import Text
 
-from groundstation.map import HOST
+from groundstation.link import LinkError
 from groundstation.map.state import (
     PLANNED_PATH_FILE,
     MapModel,
@@ -56,7 +56,8 @@ from groundstation.map.state import (
     replay_pictures,
     update_for,
 )
-from groundstation.mavclient import LinkError, MavClient, Msg
+from groundstation.mavclient import MavClient
+from groundstation.messages import Msg
 from groundstation.text import labelled
 from groundstation.tlog import read_tlog
 
@@ -389,11 +390,11 @@ def _load_replay(path: Path) -> list[Picture]:
     return pictures
 
 
-def run(args: argparse.Namespace, client_factory: Callable[[], MavClient], done: Done) -> int:
-    """Serve the map until SIGINT / SIGTERM. ``client_factory`` opens the link (not called for ``--tlog``);
-    ``done(data, text)`` reports (``auv-gcs``'s output). Exit 0 stopped by SIGTERM, 130 by SIGINT, 2 when
-    the port cannot be served, the tlog not read or the link not opened (LinkError / OSError from
-    ``client_factory`` are the caller's to report)."""
+def run(args: argparse.Namespace, client_factory: Callable[[], MavClient], done: Done, *, host: str) -> int:
+    """Serve the map on ``host`` until SIGINT / SIGTERM. ``client_factory`` opens the link (not called for
+    ``--tlog``); ``done(data, text)`` reports (``auv-gcs``'s output). Exit 0 stopped by SIGTERM, 130 by
+    SIGINT, 2 when the port cannot be served, the tlog not read or the link not opened (LinkError / OSError
+    from ``client_factory`` are the caller's to report)."""
     pictures: list[Picture] | None = None
     if args.tlog is not None:
         try:
@@ -402,12 +403,12 @@ def run(args: argparse.Namespace, client_factory: Callable[[], MavClient], done:
             return _error(done, str(exc))
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     try:
-        sock.bind((HOST, args.port))
+        sock.bind((host, args.port))
         sock.listen(64)
     except (OSError, OverflowError) as exc:  # taken, not ours to take, or no port number at all
         sock.close()
-        return _error(done, f"cannot serve on {HOST}:{args.port}: {getattr(exc, 'strerror', None) or exc}")
-    url = f"http://{HOST}:{sock.getsockname()[1]}/"
+        return _error(done, f"cannot serve on {host}:{args.port}: {getattr(exc, 'strerror', None) or exc}")
+    url = f"http://{host}:{sock.getsockname()[1]}/"
     if pictures is not None:
         source: Source = ReplaySource(pictures, args.tlog.name)
         return asyncio.run(_serve(sock, source, None, url, done, {"mode": "replay", "tlog": str(args.tlog)}))

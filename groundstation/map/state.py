@@ -35,7 +35,8 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common import mavlink_ftp as ftp
 from groundstation import mission_files
-from groundstation.mavclient import Item, Msg, StatusText, StatusTextAssembler, state_from_heartbeat
+from groundstation.messages import Msg, StatusText, StatusTextAssembler, state_from_heartbeat
+from groundstation.mission_client import Item
 from groundstation.text import wire_text
 
 #: The vehicle's file with the path it flies now (read over MAVLink FTP).
@@ -209,14 +210,14 @@ class PlanRecorder:
                 return [(t, []) for t in types]
             opened = self._open.pop(mt, None)
             if opened is not None and len(opened[1]) == opened[0]:
-                items = [opened[1][i] for i in range(opened[0])]
+                plan = [opened[1][i] for i in range(opened[0])]
                 if mt == mavlink.MAV_MISSION_TYPE_ALL:
                     fence = mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
                     return [
-                        (mavlink.MAV_MISSION_TYPE_MISSION, [i for i in items if i.command != fence]),
-                        (mavlink.MAV_MISSION_TYPE_FENCE, [i for i in items if i.command == fence]),
+                        (mavlink.MAV_MISSION_TYPE_MISSION, [i for i in plan if i.command != fence]),
+                        (mavlink.MAV_MISSION_TYPE_FENCE, [i for i in plan if i.command == fence]),
                     ]
-                return [(mt, items)]
+                return [(mt, plan)]
         return []
 
 

@@ -387,6 +387,7 @@ class _Plans:
 
     def __init__(self, goals: list[Item], fences: list[Item]) -> None:
         self.plans = {mavlink.MAV_MISSION_TYPE_MISSION: goals, mavlink.MAV_MISSION_TYPE_FENCE: fences}
+        self.mission = self  # the client's mission client (groundstation.mission_client)
 
     def download(self, mission_type: int) -> list[Item]:
         return self.plans[mission_type]

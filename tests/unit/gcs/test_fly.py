@@ -11,7 +11,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from rich.console import Console
 
 from groundstation import fly
-from groundstation.mavclient import StatusText
+from groundstation.messages import StatusText
 
 ARMED_FLAG = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 MANUAL, AUTO, POSHOLD, SURFACE = 19, 3, 16, 9

@@ -17,9 +17,10 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common import mavlink_ftp as ftp
+from groundstation.ftp_client import FtpClient
+from groundstation.link import LinkError
 from groundstation.map.server import NO_READER_NOTE, LiveLink, make_app
 from groundstation.map.state import PLANNED_PATH_FILE, MapModel, Picture
-from groundstation.mavclient import LinkError, MavClient
 from groundstation.mission_files import goal_item, obstacle_item
 
 PATH = {"version": 4, "kind": "loiter", "goal_index": 1, "frame": "local_ned", "points_m": [[1, 2, 3]]}
@@ -63,11 +64,22 @@ class ReadingClient(Client):
         return self.read
 
 
-class CrcClient(ReadingClient):
-    """A client with MavClient's own ``file_crc32`` over a stand-in FTP request (the vehicle answers
-    CalcFileCRC32 of ``read``'s bytes, or ``nak``'s error code)."""
+class _OwnCrc(FtpClient):
+    """The ground station's own ``FtpClient.file_crc32`` over the stand-in's FTP request."""
 
-    file_crc32 = MavClient.file_crc32
+    def __init__(self, stand_in: CrcClient) -> None:
+        self.stand_in = stand_in
+
+    def request(self, opcode: int, **kw: Any) -> ftp.Packet:
+        return self.stand_in._ftp(opcode, **kw)
+
+
+class CrcClient(ReadingClient):
+    """A client with the ground station's own ``file_crc32`` over a stand-in FTP request (the vehicle
+    answers CalcFileCRC32 of ``read``'s bytes, or ``nak``'s error code)."""
+
+    def file_crc32(self, path: str, on_other: Any = None) -> int | None:
+        return _OwnCrc(self).file_crc32(path, on_other)
 
     def __init__(self, read: bytes | Exception | None = None, nak: int | None = None) -> None:
         super().__init__(read)

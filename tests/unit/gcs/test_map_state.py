@@ -29,7 +29,7 @@ from groundstation.map.state import (
     wrap_deg,
     yaw_error_deg,
 )
-from groundstation.mavclient import Item
+from groundstation.mission_client import Item
 from groundstation.mission_files import fence_circle_item, goal_item, home_item, obstacle_item
 from onboard.adapters.mavlink.modes import custom_mode
 from onboard.core.mission.state import MissionState
