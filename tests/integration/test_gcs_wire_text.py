@@ -100,7 +100,7 @@ class Run:
         t_end = time.monotonic() + timeout_s
         while not pred(self.raw):
             if self.proc.poll() is not None:
-                time.sleep(0.2)  # the rest of its output
+                self._reader.join(5.0)  # the rest of its output: the reader ends at the end of it
                 if pred(self.raw):
                     return
                 raise AssertionError(f"exited {self.proc.returncode} before {what}:\n{self.raw[-3000:]}")
@@ -160,7 +160,7 @@ def feed_until_shown(run: Run, gcs_port: int, vehicle_port: int, timeout_s: floa
             deadline = time.monotonic() + 1.0
             while time.monotonic() < deadline and f"unknown parameter {literal}" not in shown(run.raw):
                 if run.proc.poll() is not None:
-                    time.sleep(0.3)
+                    run._reader.join(5.0)  # the rest of its output
                     break
                 time.sleep(0.05)
 

@@ -8,7 +8,6 @@ import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from groundstation.mavclient import MavClient
 from groundstation.mission_files import goal_item
 from groundstation.relay import LossyRelay
 from tests.integration.mavlink.conftest import Vehicle
+from tests.waiting import wait_until
 
 
 def goals_for(k: int, n: int) -> list:
@@ -77,21 +77,7 @@ def test_garbage_flood_no_crash_no_state_change_and_counted(vehicle: Vehicle) ->
         mav.send(mavlink.MAVLink_mission_count_message(1, 1, 2, 0))
         rng = random.Random(3)
         s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        # a fake 20 Hz loop measures its own lateness while the flood runs
-        late: list[float] = []
-        stop = threading.Event()
-
-        def loop() -> None:
-            nxt = time.monotonic()
-            while not stop.is_set():
-                nxt += 0.05
-                d = nxt - time.monotonic()
-                if d > 0:
-                    time.sleep(d)
-                late.append(time.monotonic() - nxt)
-
-        t = threading.Thread(target=loop)
-        t.start()
+        # (what a flood costs the vehicle's loop and heartbeat in time is auv-bench's, section links)
         t_end = time.monotonic() + 1.5
         sent = 0
         while time.monotonic() < t_end:
@@ -106,15 +92,13 @@ def test_garbage_flood_no_crash_no_state_change_and_counted(vehicle: Vehicle) ->
                 data = bytes(b)
             s.sendto(data, ("127.0.0.1", vehicle.port))
             sent += 1
-        stop.set()
-        t.join()
         s.close()
-        time.sleep(0.2)
-        stats = vehicle.link.stats()
-        assert stats["malformed"] + stats["shed"] + stats["unknown"] > 0
+        stats = wait_until(
+            lambda: (st := vehicle.link.stats())["malformed"] + st["shed"] + st["unknown"] > 0 and st,
+            what="the garbage counted",
+        )
         assert vehicle.link.mission() == before
-        print(f"\nflood: {sent} datagrams, stats {stats}, loop max lateness {max(late) * 1e3:.1f} ms")
-        assert max(late) < 0.05, "the flood delayed a 20 Hz tick by a whole period"
+        print(f"\nflood: {sent} datagrams, stats {stats}")
         assert c.upload(goals_for(4, 2), timeout_s=6.0).ok  # the link still works
 
 
@@ -210,13 +194,9 @@ def test_a_signed_packet_replayed_after_a_restart_is_refused(tmp_path: Path) -> 
         raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         for _ in range(3):
             raw.sendto(replay, ("127.0.0.1", v.port))
-            time.sleep(0.1)
         raw.close()
         # THEN it is refused as an old timestamp, and the parameter is the operator's last value
-        deadline = time.monotonic() + 2.0
-        while v.link.stats()["old_timestamp"] < 3 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert v.link.stats()["old_timestamp"] >= 3
+        wait_until(lambda: v.link.stats()["old_timestamp"] >= 3, what="3 replays refused as old")
         good = MavClient(f"udpout:127.0.0.1:{v.port}", signing_key=key)
         good.heartbeat()
         good.wait_heartbeat(3.0)
