@@ -54,9 +54,10 @@ from typing import Any, cast
 
 from onboard.app.config import OnboardConfig, load_config
 from onboard.app.loop import ControlLoop, LoopConfig
-from onboard.core.autopilot import Autopilot, StepOutput
+from onboard.core.autopilot import Autopilot
 from onboard.core.mission.model import Goal, Mission
 from onboard.core.mission.state import MissionState
+from onboard.core.record import TickRecord
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BusConfig, open_bus
 from onboard.protocol.codec import Codec
@@ -101,7 +102,7 @@ class _Truth:
     speed_mps: float = 0.0
     yaw_rate_radps: float = 0.0
 
-    def follow(self, out: StepOutput) -> None:
+    def follow(self, out: TickRecord) -> None:
         r = out.reference
         if r is None:
             return
@@ -134,7 +135,7 @@ class _TimedAutopilot:
         self.step_s: list[float] = []
         self.timing = False
 
-    def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> StepOutput:
+    def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> TickRecord:
         t0 = time.perf_counter()
         out = self.inner.step(cache, now_s, dt_s)
         if self.timing:
@@ -196,7 +197,7 @@ def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> di
         while k < _WARMUP_TICKS_MAX:
             sensor_port.send_all(_sensor_frames(truth, rng, now[0]))
             loop.take(onboard_port.drain())
-            out = cast(StepOutput, loop.tick(now[0]))
+            out = cast(TickRecord, loop.tick(now[0]))
             sensor_port.drain()
             truth.follow(out)
             k += 1
@@ -216,7 +217,7 @@ def tick_compute(quick: bool = False, config: OnboardConfig | None = None) -> di
             t0 = perf()
             loop.take(onboard_port.drain())
             t1 = perf()
-            out = cast(StepOutput, loop.tick(now[0]))
+            out = cast(TickRecord, loop.tick(now[0]))
             t2 = perf()
             drain_s.append(t1 - t0)
             tick_s.append(t2 - t1)

@@ -1,6 +1,6 @@
 """Plans the core asks for: what a request carries and the pure function that answers it.
 
-The core never plans inside its step (:mod:`onboard.core.autopilot`): it puts a :class:`PlanRequest`
+The core never plans inside its step (:mod:`onboard.core.executive`): it puts a :class:`PlanRequest`
 out and the loop's worker (:mod:`onboard.app.planning`) runs :func:`compute_plan` on it off the control
 thread. Both are pure: the planner, the goal, the obstacles and the configuration travel in the request.
 """
@@ -17,7 +17,9 @@ from onboard.core.planner.path import ArcSegment, Path
 from onboard.core.planner.planner import inflate, plan
 from onboard.protocol.conventions import wrap_pi
 
-LOITER_LAPS = 1000  # a loiter path is this many laps of its circle (hours): re-planned only if it ends
+#: A loiter path's circle is drawn this many laps: the lap flown and one lap of look-ahead. The loiter
+#: maneuver evaluates it modulo one lap (:func:`onboard.core.executive.loiter.wrap_lap`): a circle, no end.
+LOITER_CIRCLE_LAPS = 2
 
 
 @dataclass(frozen=True)
@@ -103,7 +105,7 @@ def compute_plan(request: PlanRequest) -> Path:
         start_depth_m=request.start_depth_m,
         goal_depth_m=g.depth_m,
     )
-    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_LAPS)
+    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_CIRCLE_LAPS)
     return Path(
         (*run_in.segments, circle),
         start_depth_m=g.depth_m,

@@ -17,9 +17,10 @@ from typing import Any, Protocol
 
 from onboard.adapters.mavlink import api
 from onboard.core import commands as core
-from onboard.core.autopilot import Autopilot, StepOutput
+from onboard.core.autopilot import Autopilot
 from onboard.core.control.actuators import ActuatorFlag
 from onboard.core.mission.state import MissionState
+from onboard.core.record import TickRecord
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +48,7 @@ def before_tick(autopilot: Autopilot, link: Link) -> None:
 def after_tick(
     autopilot: Autopilot,
     link: Link,
-    out: StepOutput,
+    out: TickRecord,
     now_s: float,
     overruns: int = 0,
     loop_load: float = math.nan,
@@ -76,7 +77,7 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
 
 
 def snapshot(
-    ap: Autopilot, out: StepOutput, now_s: float, overruns: int = 0, loop_load: float = math.nan
+    ap: Autopilot, out: TickRecord, now_s: float, overruns: int = 0, loop_load: float = math.nan
 ) -> api.VehicleSnapshot:
     """The telemetry snapshot of one tick."""
     n, r, c = out.nav, out.reference, out.command

@@ -2,9 +2,13 @@
 
 Pure: :func:`transition` takes the current :class:`MissionStatus` and one :class:`MissionEvent` and returns a
 :class:`Transition` (the new status, whether the event was accepted, and a human-readable reason). An illegal
-event leaves the status unchanged, ``accepted=False`` and says why. This table is the vocabulary of states;
-the one judge of commands, :meth:`onboard.core.autopilot.Autopilot.handle`, applies it after its own
-preconditions (navigation valid, goals present) and answers no-ops ("already armed") itself.
+event leaves the status unchanged, ``accepted=False`` and says why. This table is the vocabulary of states
+and the one owner of every precondition that depends on the state alone: which event is allowed where (and
+the hint the operator reads when it is not, :data:`_HINTS`), which command changes nothing where
+(:func:`no_op`: "already armed"), that a mission has goals, that a goal index is in range
+(:func:`goal_problem`), and which states may move the actuators (:func:`actuators_live`). The one judge of
+commands, :mod:`onboard.core.commander`, asks it (pure: a dry run) and adds only what the state
+cannot know (navigation valid, the CAN bus, the actuator node's failsafe).
 
 Table (anything not listed is rejected)::
 
@@ -74,6 +78,19 @@ class MissionStatus:
         return self.state in (MissionState.RUNNING, MissionState.HOLD, MissionState.COMPLETE)
 
 
+#: The states in which the actuators may move under the vehicle's own command (COMPLETE only while it
+#: loiters: :func:`actuators_live`). The failsafes apply in :attr:`MissionStatus.active`.
+LIVE_STATES = frozenset({MissionState.ARMED, MissionState.RUNNING, MissionState.HOLD})
+
+
+def actuators_live(state: MissionState, loitering: bool) -> bool:
+    """True exactly when the actuators may move under the vehicle's own command: ARMED, RUNNING, HOLD, and
+    COMPLETE while ``loitering`` (the ``loiter`` end action, not fallen back to surfacing)."""
+    if state is MissionState.COMPLETE:
+        return loitering
+    return state in LIVE_STATES
+
+
 @dataclass(frozen=True)
 class Transition:
     """The result of one event: the new status (unchanged when rejected), acceptance and the reason."""
@@ -123,6 +140,47 @@ _EDGES: dict[tuple[MissionState, MissionEvent], MissionState] = {
 }
 
 
+# (state, event) -> what the operator should do instead, added to "<event> not allowed in <STATE>".
+_HINTS: dict[tuple[MissionState, MissionEvent], str] = {
+    (S.ABORT, E.ARM): "disarm first to acknowledge the abort",
+    (S.ABORT, E.START): "disarm first to acknowledge the abort",
+    (S.RUNNING, E.DISARM): "hold (or force the disarm) first",
+    (S.IDLE, E.START): "disarmed, arm first",
+    (S.COMPLETE, E.START): "the mission is complete, arm to fly it again",
+    **{(s, E.HOLD): "not running" for s in (S.IDLE, S.ARMED, S.COMPLETE, S.ABORT)},
+    **{(s, E.RESUME): "not holding" for s in (S.IDLE, S.ARMED, S.COMPLETE, S.ABORT)},
+}
+
+# (state, event) -> why the command that asks for the event changes nothing there (accepted as a no-op).
+_NO_OPS: dict[tuple[MissionState, MissionEvent], str] = {
+    **{(s, E.ARM): f"already armed ({s.name})" for s in (S.ARMED, S.RUNNING, S.HOLD)},
+    (S.IDLE, E.DISARM): "already disarmed",
+    (S.IDLE, E.DISARM_FORCED): "already disarmed",
+    (S.HOLD, E.HOLD): "already holding",
+    (S.RUNNING, E.RESUME): "already running",
+    (S.RUNNING, E.START): "already running",
+    (S.ABORT, E.ABORT): "already in ABORT",
+}
+
+#: The states in which the current goal may be set (not COMPLETE: done; not ABORT: to be acknowledged).
+_GOAL_SETTABLE = frozenset({S.IDLE, S.ARMED, S.RUNNING, S.HOLD})
+
+
+def no_op(status: MissionStatus, event: MissionEvent) -> str:
+    """Why ``event`` would change nothing in ``status`` ("already armed (RUNNING)"), else ""."""
+    return _NO_OPS.get((status.state, event), "")
+
+
+def goal_problem(status: MissionStatus, index: int) -> str:
+    """Why goal ``index`` cannot be made the current goal now ("" when it can): the one owner of the goal
+    index's range (START and RESUME use it too, through :func:`transition`)."""
+    if not 0 <= index < status.goal_count:
+        return f"no goal {index}: the mission has {status.goal_count} goals"
+    if status.state not in _GOAL_SETTABLE:
+        return f"{status.state.name}: the current goal cannot change now"
+    return ""
+
+
 def transition(
     status: MissionStatus,
     event: MissionEvent,
@@ -143,7 +201,8 @@ def transition(
     target = _EDGES.get((status.state, event))
     if target is None:
         why = f"{event.value} not allowed in {status.state.name}"
-        return Transition(status, False, why + suffix)
+        hint = _HINTS.get((status.state, event))
+        return Transition(status, False, why + (f": {hint}" if hint else "") + suffix)
 
     if event is E.MISSION_REPLACED:
         if goal_count is None or goal_count < 0:
@@ -157,7 +216,9 @@ def transition(
         return Transition(new, True, reason)
 
     if event in (E.ARM, E.START, E.RESUME) and status.goal_count == 0:
-        return Transition(status, False, f"{event.value} rejected: the mission has no goals" + suffix)
+        return Transition(
+            status, False, f"{event.value} rejected: the mission has no goals (upload one first)" + suffix
+        )
 
     if event is E.GOAL_REACHED:
         done = status.goal_index
@@ -175,7 +236,7 @@ def transition(
     elif event in (E.START, E.RESUME):
         index = status.goal_index if goal_index is None else goal_index
         if not 0 <= index < status.goal_count:
-            why = f"{event.value} rejected: no goal {index} (the mission has {status.goal_count})"
+            why = f"{event.value} rejected: {goal_problem(status, index)}"
             return Transition(status, False, why + suffix)
     reason = f"{event.value}: {status.state.name} -> {target.name}" + suffix
     return Transition(replace(status, state=target, goal_index=index, reason=reason), True, reason)

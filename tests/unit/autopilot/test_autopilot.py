@@ -358,7 +358,8 @@ def test_mission_events_still_apply_directly() -> None:
     ap = Autopilot(core())
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     assert ap.apply(MissionEvent.ARM).accepted
-    assert not ap.apply(MissionEvent.START).accepted  # no navigation yet
+    # the state table still refuses what it refuses (readiness is the judge's: handle(Start))
+    assert not ap.apply(MissionEvent.HOLD).accepted
 
 
 def test_a_parameter_is_judged_by_the_core_and_the_verdict_carries_the_value_in_force() -> None:
@@ -386,7 +387,7 @@ def test_an_arrival_the_estimate_cannot_confirm_holds_with_the_reason() -> None:
     tick(ap, 0.05)
     assert ap.last_nav is not None
     at_goal = dataclasses.replace(ap.last_nav, x_m=20.0, y_m=0.05, position_std_m=3.6)
-    ap._arrived(at_goal)
+    ap.executive.goto.arrived(ap.executive, ap, at_goal)
     # THEN it does not claim the goal: it holds and says why
     assert ap.status.state is S.HOLD and ap.goals_reached == 0
     assert "cannot be confirmed" in ap.status.reason and "3.6 m" in ap.status.reason

@@ -1,0 +1,216 @@
+"""The executive: what the vehicle is doing now, and the plans that needs (DUNE's maneuver supervisor).
+
+It picks the maneuver the mission state asks for (:meth:`Executive.active`: RUNNING -> :class:`Goto`,
+COMPLETE -> the end action, :class:`Loiter` or :class:`Surface`; nothing otherwise) and steps it once a tick.
+It owns the path flown and guidance's memory on it, and schedules the plans off the control thread: the
+core never plans inside its step; it puts a :class:`~onboard.core.plans.PlanRequest` out
+(:meth:`take_plan_request`), the loop's worker computes it and hands the answer back (:meth:`plan_done`)
+before a later step; a plan that misses ``[mission] plan_deadline_s`` is the maneuver's failure. No clock,
+no I/O: the vehicle's time is ``Vehicle.now_s``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+from onboard.core import guidance
+from onboard.core.commands import Severity
+from onboard.core.executive.goto import Goto
+from onboard.core.executive.loiter import Loiter
+from onboard.core.executive.maneuver import Leg, Maneuver, Vehicle
+from onboard.core.executive.surface import Surface
+from onboard.core.mission.state import MissionEvent, MissionState
+from onboard.core.nav.types import NavState
+from onboard.core.planner.errors import PlannerError
+from onboard.core.planner.path import Path
+from onboard.core.plans import PlanRequest
+
+log = logging.getLogger(__name__)
+
+#: The current estimate's 1-sigma (m/s) below which planning counts it (``[planner] current_aware``).
+PLAN_CURRENT_STD_MPS = 0.2
+#: Currents slower than this (m/s) are planned as still water (the estimate's noise is not a current).
+PLAN_CURRENT_MIN_MPS = 0.05
+
+
+@dataclass
+class Executive:
+    """The maneuvers, the path flown (``path_kind`` "goal" to goal ``path_goal_index``, "loiter", or
+    "surface" once a loiter fell back to surfacing) and the plan requests in flight."""
+
+    goto: Goto = field(default_factory=Goto)
+    loiter: Loiter = field(default_factory=Loiter)
+    surface: Surface = field(default_factory=Surface)
+    path: Path | None = None
+    path_goal_index: int = -1
+    path_kind: str = ""
+    planner_error: str = ""
+    guidance_state: guidance.GuidanceState = field(default_factory=guidance.GuidanceState)
+    path_current_mps: float = 0.0  # the current (m/s) the flown path was planned for
+    path_t_s: float = -math.inf  # when the flown path was asked for (the core's time, s)
+    _plan_out: PlanRequest | None = None  # asked for, not yet taken by the loop
+    _plan_wait: PlanRequest | None = None  # taken (or asked for): the result is awaited
+    _plan_ids: int = 0
+
+    # --- which maneuver ----------------------------------------------------------------------------
+    def loitering(self, v: Vehicle) -> bool:
+        """The end action is a loiter that has not fallen back to surfacing."""
+        return v.config.mission.end_action == "loiter" and self.path_kind != "surface"
+
+    def active(self, v: Vehicle) -> Maneuver | None:
+        """The maneuver the mission state asks for now (None: nothing is flown, the vehicle holds still)."""
+        state = v.status.state
+        if state is MissionState.RUNNING:
+            return self.goto
+        if state is MissionState.COMPLETE:
+            return self.loiter if self.loitering(v) else self.surface
+        return None
+
+    def step(self, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+        """One tick: a plan past its deadline fails its maneuver, then the active maneuver steps."""
+        req = self._plan_wait
+        deadline_s = v.config.mission.plan_deadline_s
+        if req is not None and v.now_s - req.t_s > deadline_s:
+            self._plan_wait = self._plan_out = None
+            why = f"planning {req.kind} {req.goal_index} missed its deadline ({deadline_s:g} s)"
+            self.planner_error = why
+            maneuver = self.active(v)
+            if maneuver is not None and maneuver.kind == req.kind:
+                maneuver.plan_failed(self, v, why, late=True)
+        maneuver = self.active(v)
+        return None if maneuver is None else maneuver.step(self, v, nav, dt_s)
+
+    def follow(self, v: Vehicle, nav: NavState, dt_s: float) -> Leg:
+        """Guidance on the path flown, one step (the maneuvers call it; ``path`` is not None)."""
+        assert self.path is not None
+        reference, self.guidance_state, debug = guidance.step(
+            nav, self.path, self.guidance_state, v.config.guidance, dt_s
+        )
+        return Leg(reference, debug)
+
+    # --- what the state machine's transitions mean here ---------------------------------------------
+    def on_transition(self, v: Vehicle, event: MissionEvent, after: MissionState) -> None:
+        """After an accepted transition: a START or RESUME homes afresh from where the vehicle is; a state
+        that flies nothing drops the path."""
+        if event in (MissionEvent.START, MissionEvent.RESUME):
+            self.goto.start(self, v)
+        if after is not MissionState.RUNNING and after is not MissionState.COMPLETE:
+            self.drop_path()
+
+    def mission_replaced(self) -> None:
+        """New goals: nothing reached, no path."""
+        self.goto.reset()
+        self.drop_path()
+
+    def fence_replaced(self, v: Vehicle) -> None:
+        """A plan in flight or in use was made round the old obstacles: ask again (the old path is flown
+        until the new one arrives; the answer to the old request is dropped)."""
+        state = v.status.state
+        if state is MissionState.RUNNING:
+            self.ask_plan(v, "goal")
+        elif state is MissionState.COMPLETE and self.path_kind == "loiter":
+            self.ask_plan(v, "loiter")
+
+    # --- plans off the control thread ----------------------------------------------------------------
+    @property
+    def plan_waiting(self) -> PlanRequest | None:
+        """The request whose answer is awaited, if any."""
+        return self._plan_wait
+
+    def drop_path(self) -> None:
+        self.path, self.path_goal_index, self.path_kind = None, -1, ""
+        self._plan_out = self._plan_wait = None
+
+    @staticmethod
+    def current_mps(nav: NavState) -> float:
+        """The estimated water current's speed (m/s) for planning, 0 while the estimate is vaguer than
+        :data:`PLAN_CURRENT_STD_MPS` or the current slower than :data:`PLAN_CURRENT_MIN_MPS`."""
+        if not nav.current_std_mps < PLAN_CURRENT_STD_MPS:
+            return 0.0
+        speed = math.hypot(nav.current_north_mps, nav.current_east_mps)
+        return speed if speed >= PLAN_CURRENT_MIN_MPS else 0.0
+
+    def ask_plan(self, v: Vehicle, kind: str, replan: bool = False) -> None:
+        """Put a plan request out: ``goal`` to the current goal, ``loiter`` round the last goal."""
+        n = v.last_nav
+        if n is None:
+            return
+        cfg = v.config
+        index = v.status.goal_index if kind == "goal" else len(v.mission.goals) - 1
+        radius = cfg.mission.loiter_radius_m or 2.0 * cfg.planner.turning_radius_m
+        self._plan_ids += 1
+        self._plan_out = self._plan_wait = PlanRequest(
+            self._plan_ids,
+            kind,
+            index,
+            (n.x_m, n.y_m, n.yaw_rad),
+            max(n.depth_m, 0.0),
+            v.mission.goals[index],
+            v.mission.obstacles,
+            cfg.planner,
+            radius,
+            v.now_s,
+            cfg.mission.plan_deadline_s,
+            current_mps=self.current_mps(n),
+            speed_mps=cfg.guidance.speed_mps,
+            replan=replan,
+            planned_current_mps=self.path_current_mps,
+        )
+
+    def take_plan_request(self) -> PlanRequest | None:
+        """The plan asked for (once): the loop computes it with :func:`~onboard.core.plans.compute_plan`."""
+        req, self._plan_out = self._plan_out, None
+        return req
+
+    def plan_done(self, v: Vehicle, request_id: int, result: Path | PlannerError) -> bool:
+        """The worker's answer to request ``request_id`` (a stale one, e.g. after a HOLD, is dropped).
+        True when a new path is flown from now on (the PD starts afresh on it)."""
+        req = self._plan_wait
+        if req is None or req.request_id != request_id:
+            return False
+        self._plan_wait = self._plan_out = None
+        maneuver = self.active(v)
+        if maneuver is None or maneuver.kind != req.kind:
+            return False
+        if req.kind == "goal" and req.goal_index != v.status.goal_index:
+            return False
+        if isinstance(result, PlannerError) and req.replan and self.path is not None:
+            # the path flown now stays: it was planned for another current, not made impossible by it
+            log.warning("re-plan for the current failed, the path flown stays: %s: %s", result.reason, result)
+            self.path_current_mps, self.path_t_s = req.current_mps, req.t_s
+            return False
+        if isinstance(result, PlannerError):
+            self.planner_error = f"{result.reason}: {result}"
+            log.error("cannot plan %s %d: %s", req.kind, req.goal_index, self.planner_error)
+            maneuver.plan_failed(self, v, self.planner_error, late=False)
+            return False
+        self.planner_error = ""
+        self.path_current_mps, self.path_t_s = req.current_mps, req.t_s
+        if req.replan:
+            text = (
+                f"goal {req.goal_index}: re-planned for the current now estimated, {req.current_mps:.2f} m/s "
+                f"(the path flown was planned for {req.planned_current_mps:.2f} m/s)"
+            )
+            log.info("%s", text)
+            v.note(Severity.INFO, text)
+        if result.note:
+            text = f"{req.kind} {req.goal_index}: {result.note}"
+            log.warning("%s", text)
+            v.note(Severity.WARNING, text)
+        self.path, self.path_goal_index, self.path_kind = result, req.goal_index, req.kind
+        # A new path starts its reference at the vehicle's speed (a re-plan or the next goal under way),
+        # not from rest: the ramp then would ask a moving vehicle to brake.
+        n, top = v.last_nav, v.config.guidance.speed_mps
+        moving = min(max(n.u_mps, 0.0), top) if n is not None and math.isfinite(n.u_mps) else 0.0
+        self.guidance_state = guidance.GuidanceState(ref_speed_mps=moving)
+        log.info(
+            "planned %s %d: %s, %.2f m, %d virtual goals",
+            req.kind,
+            req.goal_index,
+            result.word,
+            result.length_m,
+            len(result.virtual_goals),
+        )
+        return True

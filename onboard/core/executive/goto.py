@@ -1,0 +1,157 @@
+"""Goto: homing to the mission's goals, one after the other (the paper's homing; DUNE's Goto).
+
+It owns, for the goal in force (``status.goal_index``):
+
+- the plan: asked for at START (afresh, from where the vehicle is), after each goal reached (the next goal,
+  from here), after a miss (the same goal pose) and when the water current turns out other than planned for;
+- arrival: a goal is reached only when the estimate crosses the goal line (guidance's ``arrived``) within
+  ``[mission] arrival_radius_m`` of the goal, and the estimate is itself that good (its position 1-sigma no
+  coarser than the radius; else HOLD: the arrival cannot be confirmed);
+- misses: farther off it is a miss, re-planned from where the vehicle is to the same goal pose, up to
+  ``max_tries`` attempts, then HOLD with the reason;
+- re-plans on current: a path planned for one current (``[planner] current_aware``) is planned again when
+  the estimate has moved by :data:`REPLAN_CURRENT_CHANGE_MPS` (the start's estimate is a guess until the
+  vehicle turns), with a note; if that plan fails the path flown stays;
+- progress: ``goals_reached`` since the mission (re)started (MISSION_ITEM_REACHED) and ``attempt``.
+
+After the last goal the state table makes the mission COMPLETE and the executive hands over to the end
+action (:mod:`~onboard.core.executive.loiter` or :mod:`~onboard.core.executive.surface`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from onboard.core.commands import Severity
+from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.mission.state import MissionEvent, MissionState
+from onboard.core.nav.types import NavState
+from onboard.core.plans import current_radius_m
+
+if TYPE_CHECKING:
+    from onboard.core.executive.executive import Executive
+
+log = logging.getLogger(__name__)
+
+#: A goal path is planned again when the current estimate has moved this much (m/s) since it was asked for
+#: (the start's estimate is a guess until the vehicle has turned: along its heading only current + water
+#: speed is seen), and not more often than every REPLAN_MIN_INTERVAL_S (s).
+REPLAN_CURRENT_CHANGE_MPS = 0.1
+REPLAN_MIN_INTERVAL_S = 5.0
+
+
+@dataclass
+class Goto:
+    """Homing to goal ``status.goal_index``; ``attempt`` counts the tries at it (1 = the first)."""
+
+    kind = "goal"
+    goals_reached: int = 0
+    attempt: int = 1
+
+    def reset(self) -> None:
+        """A new mission: nothing reached yet."""
+        self.goals_reached = 0
+        self.attempt = 1
+
+    def start(self, ex: Executive, v: Vehicle) -> None:
+        self.attempt = 1
+        ex.drop_path()
+        ex.ask_plan(v, "goal")  # afresh, from where the vehicle is
+
+    def goal_set(self, ex: Executive) -> None:
+        """The operator made another goal the current one: a first try at it, planned when next flown."""
+        self.attempt = 1
+        ex.drop_path()
+
+    def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+        index = v.status.goal_index
+        if ex.path is None or ex.path_goal_index != index or ex.path_kind != "goal":
+            wait = ex.plan_waiting
+            if wait is None or wait.goal_index != index:
+                ex.ask_plan(v, "goal")
+            return None
+        leg = ex.follow(v, nav, dt_s)
+        if leg.reference.arrived:
+            self.arrived(ex, v, nav)
+        if v.status.state is not MissionState.RUNNING or ex.path is None:
+            return None  # reached (COMPLETE, or the next goal's plan is asked for), missed, or held
+        if self._current_changed(ex, v, nav):
+            ex.ask_plan(v, "goal", replan=True)
+        return leg
+
+    def plan_failed(self, ex: Executive, v: Vehicle, why: str, late: bool) -> None:
+        text = why if late else f"cannot plan goal {v.status.goal_index}: {why}"
+        v.apply(MissionEvent.HOLD, text, severity=Severity.WARNING)
+
+    def done(self, v: Vehicle) -> bool:
+        return v.status.state is MissionState.COMPLETE
+
+    def progress(self, ex: Executive, v: Vehicle) -> Progress:
+        n = len(v.mission.goals)
+        text = f"goal {v.status.goal_index} of {n}, try {self.attempt}, {self.goals_reached} reached"
+        return Progress(text, self.goals_reached / n if n else math.nan)
+
+    def arrived(self, ex: Executive, v: Vehicle, nav: NavState) -> None:
+        """The estimate crossed the goal line: reached within the arrival radius, else a miss."""
+        index = v.status.goal_index
+        goal = v.mission.goals[index]
+        miss_m = math.hypot(goal.x_m - nav.x_m, goal.y_m - nav.y_m)
+        radius = v.config.mission.arrival_radius_m
+        std_m = nav.position_std_m
+        if not std_m <= radius:  # the estimate itself is less certain than the precision to claim
+            v.apply(
+                MissionEvent.HOLD,
+                f"goal {index} cannot be confirmed: the position is known to {std_m:.1f} m (1 sigma), "
+                f"coarser than the arrival radius {radius:g} m",
+                severity=Severity.WARNING,
+            )
+            return
+        if miss_m <= radius:
+            self.goals_reached += 1
+            self.attempt = 1
+            v.apply(MissionEvent.GOAL_REACHED, f"{miss_m:.2f} m from it")
+            if v.status.state is MissionState.RUNNING:
+                ex.drop_path()
+                ex.ask_plan(v, "goal")  # the next goal, from here
+            else:  # COMPLETE: the end action starts now
+                ex.path, ex.path_goal_index, ex.path_kind = None, -1, ""
+            return
+        tries = v.config.mission.max_tries
+        if self.attempt < tries:
+            self.attempt += 1
+            text = (
+                f"goal {index} missed by {miss_m:.2f} m (arrival radius {radius:g} m): "
+                f"re-planning, try {self.attempt} of {tries}"
+            )
+            log.warning("%s", text)
+            v.note(Severity.WARNING, text)
+            ex.drop_path()
+            ex.ask_plan(v, "goal")
+            return
+        v.apply(
+            MissionEvent.HOLD,
+            f"goal {index} missed by {miss_m:.2f} m after {tries} tries",
+            severity=Severity.WARNING,
+        )
+
+    @staticmethod
+    def _current_changed(ex: Executive, v: Vehicle, nav: NavState) -> bool:
+        """True when the flown goal path should be planned again for the current now estimated: the
+        planner widens turns for a current (``current_aware``), the estimate has moved by
+        :data:`REPLAN_CURRENT_CHANGE_MPS` since the path was asked for (at least :data:`REPLAN_MIN_INTERVAL_S`
+        ago), and the goal is far enough for a new path to differ (twice the widest turn plus the run-in)."""
+        planner = v.config.planner
+        if not planner.current_aware or ex.plan_waiting is not None:
+            return False
+        if v.now_s - ex.path_t_s < REPLAN_MIN_INTERVAL_S:
+            return False
+        now_mps = ex.current_mps(nav)
+        if abs(now_mps - ex.path_current_mps) < REPLAN_CURRENT_CHANGE_MPS:
+            return False
+        goal = v.mission.goals[v.status.goal_index]
+        radius_m = current_radius_m(planner.turning_radius_m, v.config.guidance.speed_mps, now_mps)
+        far_m = 2.0 * radius_m + planner.goal_run_in_m
+        return math.hypot(goal.x_m - nav.x_m, goal.y_m - nav.y_m) > far_m
