@@ -18,6 +18,7 @@ from groundstation.__main__ import main
 from groundstation.mavclient import MAV_RESULT_NAMES, StatusTextAssembler
 from groundstation.mission_files import MissionFileError, load
 from tests.integration.mavlink.conftest import Vehicle
+from tests.waiting import wait_until
 
 YAML = """goals:
   - {x_m: 20.0, y_m: 5.0, depth_m: 2.0, yaw_deg: 90}
@@ -512,14 +513,18 @@ def test_one_shot_commands_are_no_session_the_vehicle_watches(
             for args in (("params", "get", "MIS_ARRIVE_R_M"), ("wait-ready", "--timeout", "2"), ("disarm",)):
                 code, _ = run(capsys, v, tmp_path, *args)
                 assert code in (0, 1, 3), args
-            time.sleep(2.0)
-            # THEN the vehicle never counted them as a ground-station link, so none was lost
+            # THEN the vehicle never counted them as a ground-station link (its watch has heard no station's
+            # heartbeat, so it has none to lose), and none was lost
+            assert v.link._gcs_last_s is None
             assert not [r for r in caplog.records if "link lost" in r.getMessage()]
             # WHEN a session watches for 1 s and ends
             code, _ = run(capsys, v, tmp_path, "monitor", "--duration", "1")
             assert code == 0
-            time.sleep(2.0)
-        # THEN its end is reported, once
+            # THEN its end is reported (gcs_timeout_s after its last heartbeat), once
+            wait_until(
+                lambda: [r for r in caplog.records if "ground-station link lost" in r.getMessage()],
+                what="the session's end reported",
+            )
         lost = [r for r in caplog.records if "ground-station link lost" in r.getMessage()]
         assert len(lost) == 1
     finally:
