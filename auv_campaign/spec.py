@@ -48,18 +48,20 @@ Note that YAML 1.1 reads ``1e-3`` as a string: write ``1.0e-3``.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import yaml
 
+from auv_common import mission_yaml
 from auv_common.cli import yaml_error_line
 from auv_common.config import ConfigError
 
@@ -81,8 +83,9 @@ AXES = ("mission", "seed", "current", "profile", "onboard", "vehicle")
 _TOP_KEYS = ("name", "missions", "random_missions", "sweep", "time_limit_factor", "success")
 _SWEEP_KEYS = ("seed", "current", "profile", "onboard", "vehicle")
 _MISSION_KEYS = ("name", "start", "goals", "obstacles")
-_POSE_KEYS = ("x_m", "y_m", "depth_m", "yaw_deg")
-_OBSTACLE_KEYS = ("x_m", "y_m", "radius_m")
+T = TypeVar("T")
+#: The YAML key of each field a mission validator problem names (``Problem.field``).
+_KEY_OF_FIELD = {"x": "x_m", "y": "y_m", "depth": "depth_m", "yaw": "yaw_deg", "radius": "radius_m"}
 _RANDOM_KEYS = ("count", "seed", "area_m", "obstacles", "radius_m", "depth_m", "goals", "min_distance_m")
 _SUCCESS_KEYS = ("position_m", "course_deg")
 _VEHICLE_KEYS = ("scale", "set")
@@ -125,15 +128,12 @@ class MissionSpec:
     obstacles: tuple[tuple[float, float, float], ...] = ()
 
     def to_mission_file(self) -> dict[str, Any]:
-        """The goals and obstacles in the onboard's mission file format (:mod:`onboard.app.mission_file`)."""
-        goals: list[dict[str, float]] = []
-        for x, y, d, yaw in self.goals:
-            goal = {"x_m": x, "y_m": y, "depth_m": d}
-            if yaw is not None:
-                goal["yaw_deg"] = yaw
-            goals.append(goal)
-        obstacles = [{"x_m": x, "y_m": y, "radius_m": r} for x, y, r in self.obstacles]
-        return {"goals": goals, "obstacles": obstacles}
+        """The goals and obstacles in the mission file format (:mod:`auv_common.mission_yaml`)."""
+        plan = mission_yaml.MissionPlan(
+            tuple(mission_yaml.GoalPose(*g) for g in self.goals),
+            tuple(mission_yaml.Circle(*o) for o in self.obstacles),
+        )
+        return mission_yaml.plan_data(plan)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``{"name", "start": [4], "goals": [[4]...], "obstacles": [[3]...]}``."""
@@ -416,25 +416,11 @@ def random_missions(
 # Parsing
 
 
-def _describe(value: Any) -> str:
-    """``repr(value)``, with a hint for YAML 1.1's ``1e-3`` (a string, not a number)."""
-    text = repr(value)
-    if isinstance(value, str) and "e" in value.lower():
-        try:
-            float(value)
-        except ValueError:
-            return text
-        text += " (YAML reads 1e-3 as a string: write 1.0e-3)"
-    return text
+_describe = mission_yaml.describe  # repr with the hint for YAML 1.1's 1e-3 (the mission format's own)
 
 
 def _number(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _Invalid(key, f"expected a number, got {_describe(value)}")
-    try:
-        out = float(value)
-    except OverflowError:
-        raise _Invalid(key, f"{value} is too large") from None
+    out = _mission_format(mission_yaml.number, key, value)
     if not math.isfinite(out):
         raise _Invalid(key, f"must be finite, got {value!r}")
     return out
@@ -535,54 +521,82 @@ def _value(key: str, value: Any) -> Any:
     raise _Invalid(key, f"expected a number, boolean, string or list, got {value!r}")
 
 
-def _pose(key: str, value: Any, *, yaw_required: bool) -> tuple[float, float, float, float | None]:
-    item = _mapping(
-        key, value, _POSE_KEYS, ("x_m", "y_m", "depth_m", "yaw_deg") if yaw_required else _POSE_KEYS[:3]
-    )
-    x, y, d = (_number(_join(key, k), item[k]) for k in _POSE_KEYS[:3])
-    if d < 0.0:
+def _mission_format(parse: Callable[[str, Any], T], key: str, value: Any) -> T:
+    """``parse(key, value)`` of the mission YAML format (:mod:`auv_common.mission_yaml`, the one parser of
+    goals and obstacles: the vehicle's ``--mission`` files and ``auv-gcs`` read them with it too); its
+    problem as a spec problem at the same key."""
+    try:
+        return parse(key, value)
+    except mission_yaml.MissionYamlError as exc:
+        raise _Invalid(exc.key, exc.problem) from None
+
+
+def _refuse_problems(key: str, problems: list[Any]) -> None:
+    """The first of the vehicle validator's problems (``onboard.core.mission.validate.Problem``) at the key
+    of its field."""
+    if problems:
+        p = problems[0]
+        raise _Invalid(_join(key, _KEY_OF_FIELD.get(p.field, "")), p.reason)
+
+
+def _start(key: str, value: Any) -> tuple[float, float, float, float]:
+    """The start pose (the simulator's initial state, not a goal): finite, a heading, depth >= 0."""
+    pose = _mission_format(functools.partial(mission_yaml.parse_goal, yaw_required=True), key, value)
+    for k in ("x_m", "y_m", "depth_m", "yaw_deg"):
+        v = getattr(pose, k)
+        if v is not None and not math.isfinite(v):
+            raise _Invalid(_join(key, k), f"must be finite, got {v!r}")
+    _not_above_surface(key, pose.depth_m)
+    if pose.yaw_deg is None:
+        raise _Invalid(_join(key, "yaw_deg"), "the start needs a heading")
+    return pose.x_m, pose.y_m, pose.depth_m, pose.yaw_deg
+
+
+def _not_above_surface(key: str, depth_m: float) -> None:
+    if depth_m < 0.0:
         raise _Invalid(
-            _join(key, "depth_m"), f"must be >= 0 (positive down; < 0 is above the surface), got {d:g}"
+            _join(key, "depth_m"), f"must be >= 0 (positive down; < 0 is above the surface), got {depth_m:g}"
         )
-    raw = item.get("yaw_deg")
-    return x, y, d, None if raw is None else _number(_join(key, "yaw_deg"), raw)
 
 
 def _goal(key: str, index: int, value: Any) -> tuple[float, float, float, float | None]:
-    """A goal pose; its values judged by the onboard's one rule (``check_goal_values``: a yaw NaN or
-    within +-360 deg), so a spec refuses what the vehicle would."""
+    """A goal pose in the mission format; its values judged by the onboard's one rule
+    (``check_goal_values``: finite, a yaw NaN or within +-360 deg), so a spec refuses what the vehicle
+    would."""
     from onboard.core.mission.model import Goal
     from onboard.core.mission.validate import check_goal_values
 
-    x, y, d, yaw = _pose(key, value, yaw_required=False)
-    problems = check_goal_values(index, Goal(x, y, d, None if yaw is None else math.radians(yaw)))
-    if problems:
-        raise _Invalid(key, problems[0].reason)
-    return x, y, d, yaw
+    g = _mission_format(mission_yaml.parse_goal, key, value)
+    yaw_rad = None if g.yaw_deg is None else math.radians(g.yaw_deg)
+    _refuse_problems(key, check_goal_values(index, Goal(g.x_m, g.y_m, g.depth_m, yaw_rad)))
+    _not_above_surface(key, g.depth_m)
+    return g.x_m, g.y_m, g.depth_m, g.yaw_deg
+
+
+def _obstacle(key: str, index: int, value: Any) -> tuple[float, float, float]:
+    """An obstacle circle in the mission format; its values judged by the onboard's one rule
+    (``check_obstacle_values``: finite, radius > 0)."""
+    from onboard.core.mission.model import Obstacle
+    from onboard.core.mission.validate import check_obstacle_values
+
+    c = _mission_format(mission_yaml.parse_circle, key, value)
+    _refuse_problems(key, check_obstacle_values(index, Obstacle(c.x_m, c.y_m, c.radius_m)))
+    return c.x_m, c.y_m, c.radius_m
 
 
 def _mission(key: str, value: Any, default_name: str) -> MissionSpec:
     item = _mapping(key, value, _MISSION_KEYS, ("start", "goals"))
     name = _name(_join(key, "name"), item["name"]) if "name" in item else default_name
-    sx, sy, sd, syaw = _pose(_join(key, "start"), item["start"], yaw_required=True)
-    if syaw is None:
-        raise _Invalid(_join(key, "start.yaw_deg"), "the start needs a heading")
+    start = _start(_join(key, "start"), item["start"])
     goals = tuple(
         _goal(f"{key}.goals[{i}]", i, g)
         for i, g in enumerate(_list(_join(key, "goals"), item["goals"], non_empty=True))
     )
-    obstacles: list[tuple[float, float, float]] = []
-    for i, raw in enumerate(_list(_join(key, "obstacles"), item.get("obstacles") or [])):
-        w = f"{key}.obstacles[{i}]"
-        ob = _mapping(w, raw, _OBSTACLE_KEYS, _OBSTACLE_KEYS)
-        obstacles.append(
-            (
-                _number(f"{w}.x_m", ob["x_m"]),
-                _number(f"{w}.y_m", ob["y_m"]),
-                _positive(f"{w}.radius_m", ob["radius_m"]),
-            )
-        )
-    return MissionSpec(name, (sx, sy, sd, syaw), goals, tuple(obstacles))
+    obstacles = tuple(
+        _obstacle(f"{key}.obstacles[{i}]", i, raw)
+        for i, raw in enumerate(_list(_join(key, "obstacles"), item.get("obstacles") or []))
+    )
+    return MissionSpec(name, start, goals, obstacles)
 
 
 def _range(key: str, value: Any, *, integer: bool) -> tuple[Any, Any]:

@@ -2,7 +2,9 @@
 
 :func:`load` tells them apart by content; :func:`to_yaml`, :func:`to_wpl` and :func:`to_plan` write them
 (:func:`dump` by format name, :func:`format_for` picks one from a file name). Items are
-:class:`groundstation.mavclient.Item` in MISSION_ITEM_INT encoding.
+:class:`auv_common.mission_items.MissionItem` in MISSION_ITEM_INT encoding: frames, scales, the projection
+and the home rule are :mod:`auv_common.mission_items`, the encoding the vehicle uses too, and the YAML format
+is :mod:`auv_common.mission_yaml`, the parser the vehicle's ``--mission`` and campaign specs use.
 
 YAML::
 
@@ -36,8 +38,9 @@ optional ``geoFence`` (``version 2``, ``circles``, ``polygons``) and ``rallyPoin
   its mission validator, the one owner of those rules; its refusal, e.g. MAV_MISSION_INVALID_PARAM4
   "goal 1: yaw 999 deg is outside [-360, 360] deg", is what ``auv-gcs upload`` prints).
 
-Positions and z, in every format exactly as the vehicle reads them (onboard ``mission_protocol``
-``item_position``): ``MAV_FRAME_LOCAL_NED`` x, y = metres north, east and z = depth (m, down positive);
+Positions and z, in every format exactly as the vehicle reads them (the shared
+:func:`auv_common.mission_items.item_position`): ``MAV_FRAME_LOCAL_NED`` x, y = metres north, east and
+z = depth (m, down positive);
 the global frames lat, lon in degrees and z = altitude (m, up positive: depth = -altitude; relative to
 the vehicle's origin in ``MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT)`` (QGC's is relative to its planned home:
 the same with the home at the origin's surface), above mean sea level in ``MAV_FRAME_GLOBAL(_INT)``).
@@ -63,29 +66,29 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import yaml
 from pymavlink.dialects.v20 import common as mavlink
 
-from auv_common.cli import yaml_error_line
-from groundstation.mavclient import Item
+from auv_common import mission_items as enc
+from auv_common import mission_yaml
+from auv_common.mission_items import (  # the one mission item encoding (the vehicle's too)
+    GLOBAL_FRAMES,
+    GLOBAL_SCALE,
+    LOCAL_FRAMES,
+    LOCAL_SCALE,
+    VEHICLE_FRAMES,
+    Origin,
+    fence_circle_item,
+    home_item,
+)
+from auv_common.mission_items import MissionItem as Item
+from auv_common.mission_yaml import NESTED_TOO_DEEP, Circle, GoalPose
 
-LOCAL_SCALE = 1e4
 FLOAT32_MAX = 3.4028234663852886e38  # MAVLink's float fields
-GLOBAL_SCALE = 1e7
-#: The flat-earth radius of the vehicle's projection (onboard ``mission_protocol.EARTH_RADIUS_M``), m.
-EARTH_RADIUS_M = 6_378_137.0
-INT32_MAX = 2**31 - 1
 FENCE_COMMANDS = range(5000, 5005)
-LOCAL_FRAMES = (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_ENU, mavlink.MAV_FRAME_LOCAL_OFFSET_NED)
-AMSL_FRAMES = (mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT)
-RELATIVE_FRAMES = (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
-GLOBAL_FRAMES = (*AMSL_FRAMES, *RELATIVE_FRAMES)
-#: The frames the vehicle takes (onboard ``mission_protocol.SUPPORTED_FRAMES``; the vehicle's is the rule).
-VEHICLE_FRAMES = (mavlink.MAV_FRAME_LOCAL_NED, *GLOBAL_FRAMES)
 
 #: Output formats of :func:`dump`, and the one each file suffix means (:func:`format_for`).
 FORMATS = ("plan", "wpl", "yaml")
@@ -100,147 +103,60 @@ class MissionFileError(ValueError):
     """A mission file that cannot be read; the message names the file and the place."""
 
 
-#: Why a file of lists in lists in lists ... (past Python's recursion limit) is not read.
-NESTED_TOO_DEEP = "nested too deep (lists or objects inside each other past what the reader follows)"
-
-
 def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None) -> Item:
-    return Item(
-        frame=mavlink.MAV_FRAME_LOCAL_NED,
-        command=mavlink.MAV_CMD_NAV_WAYPOINT,
-        param1=0.0,
-        param2=math.nan,
-        param3=0.0,
-        param4=math.nan if yaw_deg is None else float(yaw_deg),
-        x=round(x_m * LOCAL_SCALE),
-        y=round(y_m * LOCAL_SCALE),
-        z=float(depth_m),
-    )
-
-
-@dataclass(frozen=True)
-class Origin:
-    """The vehicle's geodetic origin of its local NED frame (GPS_GLOBAL_ORIGIN): degrees, metres AMSL."""
-
-    lat_deg: float
-    lon_deg: float
-    alt_m: float
-
-
-def global_to_local(lat_deg: float, lon_deg: float, origin: Origin) -> tuple[float, float]:
-    """(x north, y east) in metres of a position (degrees) about ``origin``: the vehicle's flat-earth
-    projection (onboard ``mission_protocol.item_position``): x = radians(dlat) * R, y = radians(dlon) * R *
-    cos(origin latitude), R = :data:`EARTH_RADIUS_M`, dlon wrapped into [-180, 180)."""
-    dlon_deg = (lon_deg - origin.lon_deg + 180.0) % 360.0 - 180.0
-    x_m = math.radians(lat_deg - origin.lat_deg) * EARTH_RADIUS_M
-    y_m = math.radians(dlon_deg) * EARTH_RADIUS_M * math.cos(math.radians(origin.lat_deg))
-    return x_m, y_m
-
-
-def local_ned(item: Item, origin: Origin | None) -> tuple[float, float, float] | None:
-    """(x_m north, y_m east, depth_m) of an item as the vehicle reads it (module docstring): local NED as it
-    is; a global frame projected about ``origin`` (:func:`global_to_local`), depth = -altitude in the
-    relative frames, origin altitude - altitude in the AMSL ones. None for a global item without an
-    origin, or another frame."""
-    if item.frame == mavlink.MAV_FRAME_LOCAL_NED:
-        return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE, item.z
-    if item.frame not in GLOBAL_FRAMES or origin is None:
-        return None
-    x_m, y_m = global_to_local(item.x / GLOBAL_SCALE, item.y / GLOBAL_SCALE, origin)
-    depth_m = -(item.z - origin.alt_m) if item.frame in AMSL_FRAMES else -item.z
-    return x_m, y_m, depth_m
-
-
-def _circle_item(frame: int, x: int, y: int, radius_m: float, autocontinue: int = 1) -> Item:
-    """A circle exclusion fence item (MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1 the radius)."""
-    return Item(frame, mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, float(radius_m), 0.0, 0.0, 0.0, x, y, 0.0,
-                autocontinue)  # fmt: skip
+    """The local-frame waypoint of a goal (:func:`auv_common.mission_items.goal_item`); a position that
+    MISSION_ITEM_INT cannot carry is a :class:`MissionFileError`."""
+    try:
+        return enc.goal_item(GoalPose(x_m, y_m, depth_m, yaw_deg))
+    except enc.EncodingError as exc:
+        raise MissionFileError(str(exc)) from None
 
 
 def obstacle_item(x_m: float, y_m: float, radius_m: float) -> Item:
-    return _circle_item(
-        mavlink.MAV_FRAME_LOCAL_NED, round(x_m * LOCAL_SCALE), round(y_m * LOCAL_SCALE), radius_m
-    )
+    """The local-frame fence circle of an obstacle (:func:`auv_common.mission_items.obstacle_item`)."""
+    try:
+        return enc.obstacle_item(Circle(x_m, y_m, radius_m))
+    except enc.EncodingError as exc:
+        raise MissionFileError(str(exc)) from None
 
 
-def _num(where: str, d: dict[str, Any], key: str, optional: bool = False) -> float | None:
-    v = d.get(key)
-    if v is None:
-        if optional:
-            return None
-        raise MissionFileError(f"{where}: missing {key}")
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise MissionFileError(f"{where}: {key} must be a number, got {v!r}")
-    return float(v)
+def local_ned(item: Item, origin: Origin | None) -> tuple[float, float, float] | None:
+    """(x_m north, y_m east, depth_m) of an item as the vehicle reads it
+    (:func:`auv_common.mission_items.item_position`); None for a global item without an origin, or another
+    frame."""
+    return enc.item_position(item, origin)
 
 
 def load_yaml(path: Path) -> tuple[list[Item], list[Item]]:
+    """(mission items, fence items) of our YAML mission file (:mod:`auv_common.mission_yaml`, the one parser
+    of the format: the vehicle's ``--mission`` and campaign specs read it too), local frame."""
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
+        plan = mission_yaml.load_plan(path)
+    except mission_yaml.MissionYamlError as exc:
         raise MissionFileError(f"{path}: {exc}") from None
-    except yaml.YAMLError as exc:
-        raise MissionFileError(f"{path}: not valid YAML ({yaml_error_line(exc)})") from None
-    except RecursionError:
-        raise MissionFileError(f"{path}: {NESTED_TOO_DEEP}") from None
-    if not isinstance(data, dict):
-        raise MissionFileError(f"{path}: expected a mapping with 'goals' and/or 'obstacles'")
-    unknown = set(data) - {"goals", "obstacles"}
-    if unknown:
-        raise MissionFileError(f"{path}: unknown keys {sorted(unknown)}")
     goals, obstacles = [], []
-    for i, g in enumerate(data.get("goals") or []):
-        where = f"{path}: goals[{i}]"
-        if not isinstance(g, dict) or set(g) - {"x_m", "y_m", "depth_m", "yaw_deg"}:
-            raise MissionFileError(f"{where}: expected x_m, y_m, depth_m and optional yaw_deg")
-        x, y, z = (_num(where, g, k) for k in ("x_m", "y_m", "depth_m"))
-        assert x is not None and y is not None and z is not None
-        goals.append(goal_item(x, y, z, _num(where, g, "yaw_deg", optional=True)))
-    for i, o in enumerate(data.get("obstacles") or []):
-        where = f"{path}: obstacles[{i}]"
-        if not isinstance(o, dict) or set(o) - {"x_m", "y_m", "radius_m"}:
-            raise MissionFileError(f"{where}: expected x_m, y_m, radius_m")
-        x, y, r = (_num(where, o, k) for k in ("x_m", "y_m", "radius_m"))
-        assert x is not None and y is not None and r is not None
-        obstacles.append(obstacle_item(x, y, r))
+    for kind, i, item in [("goals", i, g) for i, g in enumerate(plan.goals)] + [
+        ("obstacles", i, o) for i, o in enumerate(plan.obstacles)
+    ]:
+        try:
+            if isinstance(item, GoalPose):
+                goals.append(enc.goal_item(item))
+            else:
+                obstacles.append(enc.obstacle_item(item))
+        except enc.EncodingError as exc:
+            raise MissionFileError(f"{path}: {kind}[{i}]: {exc}") from None
     return goals, obstacles
 
 
 def is_home_placeholder(goals: Sequence[Item]) -> bool:
     """True if the first item of a MISSION plan is what the vehicle takes as its home placeholder and does
-    not fly: ``MAV_CMD_NAV_WAYPOINT`` in ``MAV_FRAME_GLOBAL`` / ``_INT`` at seq 0 (onboard
-    ``mission_protocol.is_home_item``, ArduPilot's convention)."""
-    return bool(goals) and _is_amsl_waypoint(goals[0])
-
-
-def _is_amsl_waypoint(it: Item) -> bool:
-    return it.command == mavlink.MAV_CMD_NAV_WAYPOINT and it.frame in AMSL_FRAMES
-
-
-def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> Item:
-    """The home placeholder for a home position (degrees, metres AMSL), as QGC sends ArduPilot its home."""
-    return Item(
-        frame=mavlink.MAV_FRAME_GLOBAL,
-        command=mavlink.MAV_CMD_NAV_WAYPOINT,
-        param1=0.0,
-        param2=0.0,
-        param3=0.0,
-        param4=0.0,
-        x=round(lat_deg * GLOBAL_SCALE),
-        y=round(lon_deg * GLOBAL_SCALE),
-        z=float(alt_m),
-    )
-
-
-def fence_circle_item(lat_deg: float, lon_deg: float, radius_m: float) -> Item:
-    """The fence item of a QGC exclusion circle, as QGC uploads it (``GeoFenceManager::sendToVehicle``)."""
-    x, y = round(lat_deg * GLOBAL_SCALE), round(lon_deg * GLOBAL_SCALE)
-    return _circle_item(mavlink.MAV_FRAME_GLOBAL, x, y, radius_m, autocontinue=0)
+    not fly (:func:`auv_common.mission_items.is_home_placeholder`, ArduPilot's convention)."""
+    return enc.home_offset(goals) == 1
 
 
 def _with_home(goals: list[Item], home: Item | None) -> list[Item]:
     """The goals read from a file, with its home in front where the vehicle needs it (module docstring)."""
-    if home is not None and goals and _is_amsl_waypoint(goals[0]):
+    if home is not None and goals and enc.is_home_placeholder(goals[0]):
         return [home, *goals]
     return goals
 
@@ -369,7 +285,7 @@ def _scaled(place: str, value: float, scale: float, what: str) -> int:
     if not math.isfinite(value):
         raise MissionFileError(f"{place}: {what} must be a number, got {_short(value)}")
     scaled = round(value * scale)
-    if not -INT32_MAX - 1 <= scaled <= INT32_MAX:
+    if not enc.fits_int32(scaled):
         raise MissionFileError(f"{place}: {what} = {value!r} does not fit MISSION_ITEM_INT")
     return scaled
 

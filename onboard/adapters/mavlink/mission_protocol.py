@@ -35,15 +35,14 @@ of type ALL. The goals and the fence it carries replace the stored MISSION and F
 refused, neither (an empty fence in it clears the stored fence; a count of 0 clears both). Each plan is
 downloaded by its own type, as ever. A MISSION or FENCE transfer still replaces its own plan alone.
 
-Positions: ``MAV_FRAME_LOCAL_NED`` with x, y = metres * 1e4 (MISSION_ITEM_INT) and z = depth (m); the global
-frames (GLOBAL, GLOBAL_INT, GLOBAL_RELATIVE_ALT, GLOBAL_RELATIVE_ALT_INT: lat/lon * 1e7) are converted to the
-local frame about the configured origin with a flat-earth projection, and depth = -altitude (as ArduSub
-does; for the AMSL frames the altitude is taken relative to the origin's altitude). Yaw (param4) is in
+Positions, frames, scales, the projection about the configured origin and the home placeholder are the
+shared mission item encoding, :mod:`auv_common.mission_items` (the ground station uses the same): local NED
+x, y = metres * 1e4 and z = depth; the global frames lat/lon * 1e7, depth = -altitude. Yaw (param4) is in
 degrees, NaN = the planner's choice.
 
 Home item (ArduPilot's convention, as MAVProxy ``wp load`` and Mission Planner send a QGC WPL 110 file): a
-MISSION-type item at **seq 0** in an absolute-altitude global frame (``MAV_FRAME_GLOBAL`` or
-``MAV_FRAME_GLOBAL_INT``) with ``MAV_CMD_NAV_WAYPOINT`` is the home placeholder, see :func:`is_home_item`.
+MISSION-type item at **seq 0** that is the encoding's home placeholder
+(:func:`auv_common.mission_items.is_home_placeholder`), see :func:`is_home_item`.
 It is not flown, so it is not a goal and never reaches the validator (MAVProxy sends lat/lon 0/0); only
 validity is checked (lat within +-90 deg -> else INVALID_PARAM5_X, lon within +-180 deg -> else
 INVALID_PARAM6_Y, param1..4 NaN or finite -> else INVALID_PARAMn, altitude finite -> else INVALID_PARAM7).
@@ -58,78 +57,31 @@ never sends a home item.
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass, field
+from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common import mission_items as enc
+from auv_common.mission_items import (  # re-exported: the adapter's callers and tests name them here
+    FRAME_LOCAL,
+    GLOBAL_SCALE,
+    INT_FRAME_TO_LEGACY,
+    LEGACY_FRAME_TO_INT,
+    LOCAL_SCALE,
+    MissionItem,
+    Origin,
+    home_offset,
+)
+from auv_common.mission_yaml import Circle, GoalPose
 from onboard.adapters.mavlink.peers import Sender
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.validate import Problem, check_goal_values
 from onboard.protocol.conventions import wrap_pi
 
-LOCAL_SCALE = 1e4  # MISSION_ITEM_INT local x/y: metres * 1e4
-GLOBAL_SCALE = 1e7  # MISSION_ITEM_INT global lat/lon: degrees * 1e7
-EARTH_RADIUS_M = 6_378_137.0
-INT32_MAX = 2**31 - 1
-
 TYPE_MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 TYPE_FENCE = mavlink.MAV_MISSION_TYPE_FENCE
 TYPE_RALLY = mavlink.MAV_MISSION_TYPE_RALLY
 TYPE_ALL = mavlink.MAV_MISSION_TYPE_ALL
-
-FRAME_LOCAL = mavlink.MAV_FRAME_LOCAL_NED
-GLOBAL_FRAMES_AMSL = (mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT)
-GLOBAL_FRAMES_REL = (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
-SUPPORTED_FRAMES = (FRAME_LOCAL, *GLOBAL_FRAMES_AMSL, *GLOBAL_FRAMES_REL)
-# legacy float frames are stored as their _INT twins
-_LEGACY_FRAME_TO_INT = {
-    mavlink.MAV_FRAME_GLOBAL: mavlink.MAV_FRAME_GLOBAL_INT,
-    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-}
-_INT_FRAME_TO_LEGACY = {v: k for k, v in _LEGACY_FRAME_TO_INT.items()}
-
-
-@dataclass(frozen=True)
-class MissionItem:
-    """One stored mission item, in MISSION_ITEM_INT encoding (x, y integers; z float)."""
-
-    frame: int
-    command: int
-    param1: float
-    param2: float
-    param3: float
-    param4: float
-    x: int
-    y: int
-    z: float
-    autocontinue: int = 1
-
-    def key(self) -> tuple[str, ...]:
-        """A comparison key in which NaN equals NaN."""
-        return tuple(repr(v) for v in astuple(self))
-
-    def to_json(self) -> dict[str, float | int | None]:
-        """JSON-safe dict (NaN as None)."""
-        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in self.__dict__.items()}
-
-    @classmethod
-    def from_json(cls, d: dict[str, float | int | None]) -> MissionItem:
-        def f(name: str) -> float:
-            v = d[name]
-            return math.nan if v is None else float(v)
-
-        return cls(
-            frame=int(d["frame"] or 0),
-            command=int(d["command"] or 0),
-            param1=f("param1"),
-            param2=f("param2"),
-            param3=f("param3"),
-            param4=f("param4"),
-            x=int(d["x"] or 0),
-            y=int(d["y"] or 0),
-            z=f("z"),
-            autocontinue=int(d.get("autocontinue") or 0),
-        )
 
 
 @dataclass(frozen=True)
@@ -145,22 +97,19 @@ class MissionLimits:
     item_timeout_s: float = 0.25
     upload_timeout_s: float = 5.0
 
+    @property
+    def origin(self) -> Origin:
+        """The geodetic origin of the global frames' projection."""
+        return Origin(self.origin_lat_deg, self.origin_lon_deg, self.origin_alt_m)
+
 
 def _is_nan_or_finite(v: float) -> bool:
     return math.isnan(v) or math.isfinite(v)
 
 
-HOME_FRAMES = GLOBAL_FRAMES_AMSL  # absolute altitude only, as ArduPilot stores home
-
-
 def is_home_item(item: MissionItem, seq: int, mission_type: int = TYPE_MISSION) -> bool:
     """True if ``item`` at ``seq`` is the ArduPilot-style home placeholder (see the module docstring)."""
-    return (
-        mission_type == TYPE_MISSION
-        and seq == 0
-        and item.frame in HOME_FRAMES
-        and item.command == mavlink.MAV_CMD_NAV_WAYPOINT
-    )
+    return mission_type == TYPE_MISSION and seq == 0 and enc.is_home_placeholder(item)
 
 
 def check_home_item(item: MissionItem) -> int:
@@ -187,16 +136,11 @@ def _check_numbers(item: MissionItem, *, z_finite: bool) -> int:
             return code
     if not (math.isfinite(item.z) if z_finite else _is_nan_or_finite(item.z)):
         return mavlink.MAV_MISSION_INVALID_PARAM7
-    if not (-INT32_MAX - 1 <= item.x <= INT32_MAX):
+    if not enc.fits_int32(item.x):
         return mavlink.MAV_MISSION_INVALID_PARAM5_X
-    if not (-INT32_MAX - 1 <= item.y <= INT32_MAX):
+    if not enc.fits_int32(item.y):
         return mavlink.MAV_MISSION_INVALID_PARAM6_Y
     return mavlink.MAV_MISSION_ACCEPTED
-
-
-def home_offset(items: tuple[MissionItem, ...] | list[MissionItem]) -> int:
-    """1 if the stored MISSION plan ``items`` starts with a home item, else 0 (seq = goal index + offset)."""
-    return 1 if items and is_home_item(items[0], 0) else 0
 
 
 def goal_items(items: tuple[MissionItem, ...]) -> tuple[MissionItem, ...]:
@@ -216,24 +160,17 @@ def goal_of_seq(seq: int, offset: int, n_goals: int) -> int | None:
 
 
 def item_position(item: MissionItem, limits: MissionLimits) -> tuple[float, float, float]:
-    """(x_m north, y_m east, depth_m) of an item in the local NED frame about the origin."""
-    if item.frame == FRAME_LOCAL:
-        return item.x / LOCAL_SCALE, item.y / LOCAL_SCALE, item.z
-    lat_deg = item.x / GLOBAL_SCALE
-    lon_deg = item.y / GLOBAL_SCALE
-    dlon = (lon_deg - limits.origin_lon_deg + 180.0) % 360.0 - 180.0
-    x_m = math.radians(lat_deg - limits.origin_lat_deg) * EARTH_RADIUS_M
-    y_m = math.radians(dlon) * EARTH_RADIUS_M * math.cos(math.radians(limits.origin_lat_deg))
-    depth_m = -(item.z - limits.origin_alt_m) if item.frame in GLOBAL_FRAMES_AMSL else -item.z
-    return x_m, y_m, depth_m
+    """(x_m north, y_m east, depth_m) of a checked item (a frame the vehicle takes) in the local NED frame
+    about the origin (:func:`auv_common.mission_items.item_position`)."""
+    where = enc.item_position(item, limits.origin)
+    if where is None:
+        raise ValueError(f"frame {item.frame} is not one the vehicle takes (check_item first)")
+    return where
 
 
 def local_to_global(x_m: float, y_m: float, limits: MissionLimits) -> tuple[float, float]:
     """(lat_deg, lon_deg) of a local NED point: the inverse of :func:`item_position`'s projection."""
-    lat_deg = limits.origin_lat_deg + math.degrees(x_m / EARTH_RADIUS_M)
-    east = EARTH_RADIUS_M * math.cos(math.radians(limits.origin_lat_deg))
-    lon_deg = limits.origin_lon_deg + (math.degrees(y_m / east) if east > 1.0 else 0.0)  # 0 at a pole
-    return lat_deg, (lon_deg + 180.0) % 360.0 - 180.0
+    return enc.local_to_global(x_m, y_m, limits.origin)
 
 
 def plan_of_item(item: MissionItem) -> int:
@@ -269,7 +206,7 @@ def check_item(item: MissionItem, mission_type: int, limits: MissionLimits, seq:
             return mavlink.MAV_MISSION_UNSUPPORTED
     else:
         return mavlink.MAV_MISSION_UNSUPPORTED
-    if item.frame not in SUPPORTED_FRAMES:
+    if item.frame not in enc.VEHICLE_FRAMES:
         return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
     code = _check_numbers(item, z_finite=False)
     if code == mavlink.MAV_MISSION_ACCEPTED and mission_type == TYPE_MISSION:
@@ -313,35 +250,16 @@ def mission_from_items(
 
 
 def items_from_mission(mission: Mission) -> tuple[tuple[MissionItem, ...], tuple[MissionItem, ...]]:
-    """Local-frame items for a :class:`Mission` (used for a ``--mission`` file given at start)."""
+    """Local-frame items for a :class:`Mission` (used for a ``--mission`` file given at start); a position
+    that MISSION_ITEM_INT cannot carry raises :class:`auv_common.mission_items.EncodingError` (the file's
+    door refuses it first, :mod:`onboard.app.mission_file`)."""
     goals = tuple(
-        MissionItem(
-            frame=FRAME_LOCAL,
-            command=mavlink.MAV_CMD_NAV_WAYPOINT,
-            param1=0.0,
-            param2=math.nan,
-            param3=0.0,
-            param4=math.nan if g.yaw_rad is None else math.degrees(g.yaw_rad),
-            x=round(g.x_m * LOCAL_SCALE),
-            y=round(g.y_m * LOCAL_SCALE),
-            z=g.depth_m,
+        enc.goal_item(
+            GoalPose(g.x_m, g.y_m, g.depth_m, None if g.yaw_rad is None else math.degrees(g.yaw_rad))
         )
         for g in mission.goals
     )
-    fences = tuple(
-        MissionItem(
-            frame=FRAME_LOCAL,
-            command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
-            param1=o.radius_m,
-            param2=0.0,
-            param3=0.0,
-            param4=0.0,
-            x=round(o.x_m * LOCAL_SCALE),
-            y=round(o.y_m * LOCAL_SCALE),
-            z=0.0,
-        )
-        for o in mission.obstacles
-    )
+    fences = tuple(enc.obstacle_item(Circle(o.x_m, o.y_m, o.radius_m)) for o in mission.obstacles)
     return goals, fences
 
 
@@ -350,14 +268,12 @@ def item_from_message(msg: mavlink.MAVLink_message) -> MissionItem | None:
     if msg.get_type() == "MISSION_ITEM_INT":
         x, y, frame = int(msg.x), int(msg.y), int(msg.frame)
     else:  # legacy float MISSION_ITEM: local metres as-is, global degrees as-is
-        frame = _LEGACY_FRAME_TO_INT.get(int(msg.frame), int(msg.frame))
+        frame = LEGACY_FRAME_TO_INT.get(int(msg.frame), int(msg.frame))
         scale = LOCAL_SCALE if frame == FRAME_LOCAL else GLOBAL_SCALE
-        fx, fy = float(msg.x) * scale, float(msg.y) * scale
-        if not (math.isfinite(fx) and math.isfinite(fy)):
-            return None
-        if not (abs(fx) <= INT32_MAX and abs(fy) <= INT32_MAX):
+        try:
+            x, y = enc.to_int(float(msg.x), scale, "x"), enc.to_int(float(msg.y), scale, "y")
+        except enc.EncodingError:
             return None  # not representable in MISSION_ITEM_INT
-        x, y = round(fx), round(fy)
     return MissionItem(
         frame=frame,
         command=int(msg.command),
@@ -681,7 +597,7 @@ class MissionServer:
             scale = LOCAL_SCALE if it.frame == FRAME_LOCAL else GLOBAL_SCALE
             return [
                 mavlink.MAVLink_mission_item_message(
-                    sender[0], sender[1], seq, _INT_FRAME_TO_LEGACY.get(it.frame, it.frame), it.command, 0,
+                    sender[0], sender[1], seq, INT_FRAME_TO_LEGACY.get(it.frame, it.frame), it.command, 0,
                     it.autocontinue,
                     it.param1, it.param2, it.param3, it.param4, it.x / scale, it.y / scale, it.z, mt,
                 )

@@ -2,7 +2,7 @@
 
 The ``validate`` methods check only what makes a value a value: every field is a real, finite number (a
 goal's yaw may be None = free). Every other rule (depth range, operating area, capacities, obstacle radius,
-MAVLink encodability, feasibility) lives in one place, :func:`onboard.core.mission.validate.check_mission`,
+feasibility) lives in one place, :func:`onboard.core.mission.validate.check_mission`,
 which every door (mission files, MAVLink uploads, persisted missions) runs with the configuration.
 """
 

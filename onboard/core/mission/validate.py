@@ -16,19 +16,20 @@ Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is
 4. Obstacles: radius > 0; the centre inside the operating rectangle expanded by the obstacle's radius on
    every side (an obstacle that cannot reach into the area is a mistake, typically a wrong origin or unit,
    and is refused rather than silently ignored; one that overlaps the boundary is legitimate).
-5. Encodable on MAVLink: x and y * 1e4 (MISSION_ITEM_INT local frame) within int32. For goals this is
-   implied by rule 3 when the operating area is itself encodable (it is reported only if it is not); for
-   obstacles it is checked directly (a huge radius lets the centre lie far out).
-6. Geometry: no goal inside an inflated obstacle (radius ``max(R + margin, r_min)``, the planner's own
+5. Geometry: no goal inside an inflated obstacle (radius ``max(R + margin, r_min)``, the planner's own
    inflation), reported naming the goal and the obstacle.
-7. Feasibility: the planner (:func:`onboard.core.planner.planner.plan`) plans every leg: leg i from goal
+6. Feasibility: the planner (:func:`onboard.core.planner.planner.plan`) plans every leg: leg i from goal
    i-1 to goal i (i >= 1) and leg 0 from ``start_pose`` when it is given. The start yaw of leg i is goal
    i-1's yaw or, when that is None (free), the end yaw of the previous leg's path. Without a previous path
    (no start pose, goal 0 free) the arrival heading at goal 0 is unknown: leg 1 is tried heading straight
    at goal 1 and then every 45 deg, and is feasible if any of them is; a failure reports the straight one.
 
-All problems of rules 1 to 5 are reported (not only the first); rule 6 runs only when 1 to 5 pass, and
-planning (rule 7) only when 1 to 6 pass (a plan between refused goals means nothing).
+All problems of rules 1 to 4 are reported (not only the first); rule 5 runs only when 1 to 4 pass, and
+planning (rule 6) only when 1 to 5 pass (a plan between refused goals means nothing).
+
+No link's encoding is judged here (the core speaks metres and radians): whether a position fits a MAVLink
+mission item is the encoding's rule (:func:`auv_common.mission_items.fits_local`), asked by the doors that
+encode (the ``--mission`` file, :mod:`onboard.app.mission_file`).
 """
 
 from __future__ import annotations
@@ -44,10 +45,6 @@ from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.geometry import point_inside
 from onboard.core.planner.path import Path
 from onboard.core.planner.planner import inflate, plan
-
-#: MISSION_ITEM_INT local frame: x, y are metres * 1e4 in an int32 (the MAVLink adapter's encoding).
-MAVLINK_LOCAL_SCALE = 1e4
-INT32_MAX = 2**31 - 1
 
 Item = Literal["goal", "obstacle", "mission"]
 Field = Literal["x", "y", "depth", "yaw", "radius", "count", "plan", "format"]
@@ -112,10 +109,6 @@ class MissionCheck:
 
 def _fmt(v: float) -> str:
     return f"{v:g}"
-
-
-def _encodable(v_m: float) -> bool:
-    return abs(round(v_m * MAVLINK_LOCAL_SCALE)) <= INT32_MAX
 
 
 def _check_counts(mission: Mission, config: CoreConfig) -> list[Problem]:
@@ -202,10 +195,6 @@ def _check_goal(i: int, g: Goal, config: CoreConfig) -> list[Problem]:
                     f"{name} {_fmt(v)} m is outside the failsafe operating area [{_fmt(lo)}, {_fmt(hi)}] m",
                 )
             )
-        elif not _encodable(v):  # only if the operating area itself is not encodable
-            out.append(
-                Problem("goal", i, field, f"{name} {_fmt(v)} m is not encodable on MAVLink (int32 of m*1e4)")
-            )
     if "depth_m" not in bad:
         if g.depth_m < 0.0:
             out.append(Problem("goal", i, "depth", f"depth {_fmt(g.depth_m)} m is above the surface"))
@@ -240,15 +229,6 @@ def _check_obstacle(i: int, o: Obstacle, config: CoreConfig) -> list[Problem]:
                     field,
                     f"centre {name} {_fmt(v)} m with radius {_fmt(r)} m does not reach the failsafe "
                     f"operating area [{_fmt(lo)}, {_fmt(hi)}] m",
-                )
-            )
-        elif not _encodable(v):
-            out.append(
-                Problem(
-                    "obstacle",
-                    i,
-                    field,
-                    f"centre {name} {_fmt(v)} m is not encodable on MAVLink (int32 of m*1e4)",
                 )
             )
     return out
@@ -397,8 +377,6 @@ def check_limits(mission: Mission, config: CoreConfig) -> MissionCheck:
 
 
 __all__ = [
-    "INT32_MAX",
-    "MAVLINK_LOCAL_SCALE",
     "MISSION_INDEX",
     "YAW_LIMIT_RAD",
     "MissionCheck",

@@ -38,8 +38,9 @@ def test_a_good_file_loads_in_si_units(tmp_path: Path) -> None:
 
 
 def test_a_missing_depth_is_an_error_naming_the_goal(tmp_path: Path) -> None:
+    # the format is the one parser's (auv_common.mission_yaml): the key path, as in a campaign spec
     p = mission_file(tmp_path, "goals:\n  - {x_m: 15.0, y_m: 0.0, depth_m: 1.0}\n  - {x_m: 30.0, y_m: 0.0}\n")
-    with pytest.raises(MissionError, match=r"m\.yaml: goal 1: missing depth_m$"):
+    with pytest.raises(MissionError, match=r"m\.yaml: goals\[1\]\.depth_m: missing$"):
         load_mission(p, CFG)
 
 
@@ -65,11 +66,17 @@ def test_several_problems_give_the_first_and_the_count(tmp_path: Path) -> None:
     ("text", "match"),
     [
         ("goals: []\n", "m.yaml: a mission needs at least one goal"),
-        ("goals:\n  - {x_m: 1, y_m: 0, depth_m: true}\n", "goal 0: depth_m must be a number"),
+        (
+            "goals:\n  - {x_m: 1, y_m: 0, depth_m: true}\n",
+            r"goals\[0\]\.depth_m: expected a number, got True",
+        ),
         ("goals:\n  - {x_m: .inf, y_m: 0, depth_m: 1}\n", "goal 0: x is not a finite number"),
-        ("goals:\n  - {x_m: 1, y_m: 0, depth_m: 1, speed: 2}\n", "goal 0: expected keys"),
-        ("goals: {x_m: 1}\n", "'goals' must be a list"),
-        ("waypoints: []\n", "unknown keys"),
+        (
+            "goals:\n  - {x_m: 1, y_m: 0, depth_m: 1, speed: 2}\n",
+            r"goals\[0\]\.speed: unknown key \(known: depth_m, x_m, y_m, yaw_deg\)",
+        ),
+        ("goals: {x_m: 1}\n", "goals: expected a list"),
+        ("waypoints: []\n", "waypoints: unknown key"),
         ("goals: [\n", "not valid YAML"),
         (
             "goals:\n  - {x_m: 10, y_m: 0, depth_m: 1}\nobstacles:\n  - {x_m: 10, y_m: 0, radius_m: 1}\n",
@@ -99,3 +106,17 @@ def test_a_broken_yaml_file_is_one_line_with_its_place_at_every_door(tmp_path: P
         load_yaml(broken)
     for text in (str(onboard.value), str(gcs.value)):
         assert "\n" not in text and "not valid YAML (line 2, column 1: expected ',' or ']'" in text
+
+
+def test_a_position_no_mavlink_mission_item_carries_is_refused_at_the_file_door(tmp_path: Path) -> None:
+    # GIVEN an obstacle whose centre is 1000 km out (it reaches the area: radius 999 km) - the vehicle
+    # serves and stores a --mission file as MISSION_ITEM_INT (local x, y = m * 1e4 in an int32)
+    p = mission_file(
+        tmp_path,
+        "goals:\n  - {x_m: 10, y_m: 0, depth_m: 1}\n"
+        "obstacles:\n  - {x_m: 1000000, y_m: 0, radius_m: 999000}\n",
+    )
+    # WHEN it is loaded THEN one line names the obstacle and why (the encoding's rule, not the core's)
+    with pytest.raises(MissionError) as err:
+        load_mission(p, CFG)
+    assert str(err.value) == f"{p}: obstacle 0: centre x 1e+06 m is not encodable on MAVLink (int32 of m*1e4)"

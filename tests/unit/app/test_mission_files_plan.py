@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
+from auv_common import mission_items as enc
 from groundstation import __main__ as gcs
 from groundstation import mission_files as mf
 from groundstation.mavclient import Item
@@ -292,7 +293,7 @@ def test_a_wpl_position_that_does_not_fit_an_int32_is_refused_with_its_line(
 def test_a_wpl_position_at_the_int32_limits_reads(tmp_path: Path) -> None:
     line = "1\t0\t1\t16\t0\t0\t0\t0\t214748.3647\t-214748.3648\t1\t1"
     goals, _ = mf.load(write(tmp_path, f"QGC WPL 110\n{WPL_HOME}\n{line}\n", "m.waypoints"))
-    assert [(g.x, g.y) for g in goals] == [(mf.INT32_MAX, -mf.INT32_MAX - 1)]
+    assert [(g.x, g.y) for g in goals] == [(enc.INT32_MAX, -enc.INT32_MAX - 1)]
 
 
 def test_the_format_is_told_by_content(tmp_path: Path) -> None:
@@ -487,7 +488,7 @@ def test_any_frame_params_and_nan_read_back_the_same_in_plan_and_wpl(
 @SETTINGS
 @given(
     home=st.builds(lambda x, y, z: mf.home_item(x / 1e7, y / 1e7, z), lat_e7, lon_e7, finite),
-    first=raw_item(WAYPOINT, mf.AMSL_FRAMES),
+    first=raw_item(WAYPOINT, enc.AMSL_FRAMES),
     rest=st.lists(raw_item(WAYPOINT), max_size=3),
     fmt=st.sampled_from(("plan", "wpl")),
 )
@@ -503,7 +504,7 @@ def test_a_home_placeholder_before_an_amsl_waypoint_reads_back(
 @SETTINGS
 @given(
     home=raw_item(WAYPOINT, (mavlink.MAV_FRAME_GLOBAL,)).filter(lambda it: math.isfinite(it.z)),
-    rest=st.lists(raw_item(WAYPOINT, (mavlink.MAV_FRAME_LOCAL_NED, *mf.RELATIVE_FRAMES)), max_size=3),
+    rest=st.lists(raw_item(WAYPOINT, (mavlink.MAV_FRAME_LOCAL_NED, *enc.RELATIVE_FRAMES)), max_size=3),
     fmt=st.sampled_from(("plan", "wpl")),
 )
 def test_a_home_placeholder_the_goals_do_not_need_is_the_files_home_only(
@@ -531,7 +532,7 @@ ORIGIN = mf.Origin(35.1, 129.04, 12.0)
 def test_global_to_local_is_the_flat_earth_projection_about_the_origin(
     lat_deg: float, lon_deg: float, origin: mf.Origin, want: tuple[float, float]
 ) -> None:
-    assert mf.global_to_local(lat_deg, lon_deg, origin) == pytest.approx(want, abs=1e-6)
+    assert enc.global_to_local(lat_deg, lon_deg, origin) == pytest.approx(want, abs=1e-6)
 
 
 @SETTINGS
@@ -558,3 +559,24 @@ def test_a_number_beyond_float32_is_refused_with_the_place(tmp_path: Path, suffi
     p.write_text(mf.dump(mf.format_for(p), g, []), encoding="utf-8")
     with pytest.raises(mf.MissionFileError, match=r"goal 0: param4 = 1e\+300 does not fit MAVLink's float32"):
         mf.load(p)
+
+
+@pytest.mark.parametrize(
+    ("line", "match"),
+    [
+        ("{x_m: .inf, y_m: 0, depth_m: 1}", "goals[0]: x must be a number, got inf"),
+        ("{x_m: 0, y_m: .nan, depth_m: 1}", "goals[0]: y must be a number, got nan"),
+        ("{x_m: 300000, y_m: 0, depth_m: 1}", "goals[0]: x = 300000.0 does not fit MISSION_ITEM_INT"),
+        ("{x_m: 1" + "0" * 400 + ", y_m: 0, depth_m: 1}", "goals[0].x_m: 1" + "0" * 400 + " is too large"),
+    ],
+)
+def test_a_yaml_position_no_mission_item_carries_is_one_line_not_a_traceback(
+    tmp_path: Path, line: str, match: str
+) -> None:
+    # GIVEN a YAML goal whose x or y MISSION_ITEM_INT cannot carry (the shared encoding's rule)
+    p = tmp_path / "m.yaml"
+    p.write_text(f"goals:\n  - {line}\n")
+    # THEN loading it is a MissionFileError naming the file and the goal (it was an OverflowError)
+    with pytest.raises(mf.MissionFileError) as err:
+        mf.load(p)
+    assert str(err.value) == f"{p}: {match}"

@@ -467,7 +467,7 @@ BAD: list[tuple[str, Any, str]] = [
     (
         "missions/0/obstacles",
         [{"x_m": 0, "y_m": 0, "radius_m": 0}],
-        "missions[0].obstacles[0].radius_m: must be > 0",
+        "missions[0].obstacles[0].radius_m: radius 0 m must be positive",  # the vehicle's rule
     ),
     ("missions/0/obstacles", [{"x_m": 0, "y_m": 0}], "missions[0].obstacles[0].radius_m: missing"),
     ("missions/0/obstacles", 3, "missions[0].obstacles: expected a list"),
