@@ -29,3 +29,7 @@ class CoreConfig:
         nav = self.nav.with_stale_after(self.failsafe.nav_timeout_s)
         if nav is not self.nav:
             object.__setattr__(self, "nav", nav)
+        # One arrival distance: guidance's path is done within the mission's MIS_ARRIVE_R_M of its end.
+        guidance = self.guidance.with_arrival_radius(self.mission.arrival_radius_m)
+        if guidance is not self.guidance:
+            object.__setattr__(self, "guidance", guidance)

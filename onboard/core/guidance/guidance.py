@@ -31,15 +31,18 @@ Nothing is flown past the end of a path: after the last goal the autopilot runs 
 (:mod:`onboard.core.autopilot`); the extension of the path beyond its end (``sample_extended``) only keeps
 the errors defined for a vehicle that has overshot the goal line.
 
-Arrival (latched per path): the vehicle is within ``arrival_position_tol_m`` of the path end and its heading
-within ``arrival_yaw_tol_deg`` of the final heading, or its along-track coordinate is past the end.
+Arrival (latched per path): the vehicle is within ``arrival_radius_m`` of the path end and its heading
+within ``arrival_yaw_tol_deg`` of the final heading, or its along-track coordinate is past the end. The
+distance is the mission's ``[mission] arrival_radius_m`` (MIS_ARRIVE_R_M), the one arrival threshold, handed
+over by :class:`~onboard.core.config.CoreConfig` (:meth:`GuidanceParams.with_arrival_radius`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import ClassVar, Literal
 
 from auv_common.config import Bound, check_declared, param, require
 from onboard.core.guidance.path_frame import (
@@ -49,6 +52,7 @@ from onboard.core.guidance.path_frame import (
     sample_extended,
     yaw_error,
 )
+from onboard.core.mission.params import ARRIVAL_RADIUS_DEFAULT_M
 from onboard.core.nav.types import NavState
 from onboard.core.planner.path import Path
 from onboard.protocol.conventions import wrap_pi
@@ -79,7 +83,8 @@ class GuidanceParams:
       not distance.
     - ``ilos_gain``: ILOS integral gain sigma (dimensionless).
     - ``ilos_max_correction_deg``: clamp on the integral's heading correction, deg.
-    - ``arrival_position_tol_m``, ``arrival_yaw_tol_deg``: arrival tolerances, m and deg.
+    - ``arrival_yaw_tol_deg``: arrival's heading tolerance, deg (its distance is ``[mission]
+      arrival_radius_m``: ``arrival_radius_m`` here, set by the core's configuration).
     - ``search_back_m``, ``search_ahead_m``: window of the projection around the previous one, m.
     - ``reference_accel_mps2``: the reference speed starts at rest and speeds up at this rate to
       ``speed_mps`` (0 = the paper's uniform speed from the first instant, which a vehicle starting at rest
@@ -111,6 +116,12 @@ class GuidanceParams:
       unlimited Kp5 * e_y term saturates the rudder whatever the heading, and the vehicle circles.
     """
 
+    #: Keys that were removed, and why (``auv_common.config.from_table`` refuses them with this reason).
+    REMOVED_KEYS: ClassVar[dict[str, str]] = {
+        "arrival_position_tol_m": "the arrival distance has one owner, [mission] arrival_radius_m "
+        "(MIS_ARRIVE_R_M): set that instead",
+    }
+
     mode: GuidanceMode = "track"
     speed_mps: float = param(
         1.0, unit="m/s", min=_SPEED_MIN, operator=(0.0, 5.0), mavlink="GDE_SPEED_MPS",
@@ -125,7 +136,6 @@ class GuidanceParams:
         0.3, min=0.0, operator=(0.0, 10.0), mavlink="GDE_ILOS_GAIN", desc="ILOS integral gain"
     )
     ilos_max_correction_deg: float = 30.0
-    arrival_position_tol_m: float = 0.25
     arrival_yaw_tol_deg: float = 10.0
     search_back_m: float = 2.0
     search_ahead_m: float = 10.0
@@ -150,6 +160,8 @@ class GuidanceParams:
         0.0, unit="m/s", min=0.0, desc="steerage way: least speed through the water (0 = off)"
     )
     reference_stops_at_end: bool = False
+    #: The arrival distance, m: ``[mission] arrival_radius_m`` (MIS_ARRIVE_R_M), handed over by CoreConfig.
+    arrival_radius_m: float = field(default=ARRIVAL_RADIUS_DEFAULT_M, init=False)
     arrival_yaw_tol_rad: float = field(init=False, repr=False)
     ilos_max_correction_rad: float = field(init=False, repr=False)
     crab_max_rad: float = field(init=False, repr=False)
@@ -158,7 +170,6 @@ class GuidanceParams:
         check_declared(self)
         require(self.lookahead_time_s >= 0.0, f"lookahead_time_s must be >= 0, got {self.lookahead_time_s}")
         require(0.0 < self.ilos_max_correction_deg < 90.0, "ilos_max_correction_deg must be in (0, 90)")
-        require(self.arrival_position_tol_m > 0.0, "arrival_position_tol_m must be > 0")
         require(0.0 < self.arrival_yaw_tol_deg <= 180.0, "arrival_yaw_tol_deg must be in (0, 180]")
         require(self.search_back_m >= 0.0 and self.search_ahead_m > 0.0, "search window must be positive")
         require(self.speed_loop_limit_m >= 0.0, "speed_loop_limit_m must be >= 0")
@@ -167,6 +178,14 @@ class GuidanceParams:
         object.__setattr__(self, "crab_max_rad", math.radians(self.crab_max_deg))
         object.__setattr__(self, "arrival_yaw_tol_rad", math.radians(self.arrival_yaw_tol_deg))
         object.__setattr__(self, "ilos_max_correction_rad", math.radians(self.ilos_max_correction_deg))
+
+    def with_arrival_radius(self, arrival_radius_m: float) -> GuidanceParams:
+        """These parameters with the mission's arrival radius (m): MIS_ARRIVE_R_M."""
+        if arrival_radius_m == self.arrival_radius_m:
+            return self
+        new = dataclasses.replace(self)
+        object.__setattr__(new, "arrival_radius_m", arrival_radius_m)
+        return new
 
 
 @dataclass(frozen=True)
@@ -353,7 +372,7 @@ def step(
     end = path.sample(length)  # cached by the path
     if nav_ok:
         dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
-        at_end = dist_end <= params.arrival_position_tol_m and (
+        at_end = dist_end <= params.arrival_radius_m and (
             abs(yaw_error(end.yaw_rad, course_a)) <= params.arrival_yaw_tol_rad
         )
         arrived = state.arrived or at_end or s_proj >= length

@@ -12,6 +12,9 @@ EndAction = Literal["surface", "loiter"]
 #: The smallest arrival radius that means one, m: the navigation estimate is good to decimetres (a fix's
 #: sigma is 0.3 m), so a radius below 0.1 m turns every arrival into a miss.
 ARRIVAL_RADIUS_MIN_M = 0.1
+#: The arrival radius's default, m: MIS_ARRIVE_R_M declares it with this value; guidance built without a
+#: configuration (tests) uses it too.
+ARRIVAL_RADIUS_DEFAULT_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -19,14 +22,16 @@ class MissionParams:
     """How a mission is flown and judged. Every key is optional; each is declared once below (unit, range,
     description, MAVLink name: ``docs/parameters.md``).
 
-    A goal is reached when the vehicle's estimate crosses the goal line within ``arrival_radius_m`` of it;
-    farther off it is a miss, re-planned until ``max_tries``, then HOLD. After the last goal,
-    ``end_action``: ``surface`` (propeller 0 and fins neutral at once, the positively buoyant vehicle floats
-    up; disarmed) or ``loiter`` (circle the last goal at its depth; armed).
+    ``arrival_radius_m`` is the one arrival distance: the path to a goal is done when the vehicle's estimate
+    comes within it of the goal with the heading within ``[guidance] arrival_yaw_tol_deg``, or crosses the
+    goal line (guidance gets it from :class:`~onboard.core.config.CoreConfig`); the goal is then reached
+    if the estimate is within it of the goal, else it is a miss, re-planned until ``max_tries``, then HOLD.
+    After the last goal, ``end_action``: ``surface`` (propeller 0 and fins neutral at once, the positively
+    buoyant vehicle floats up; disarmed) or ``loiter`` (circle the last goal at its depth; armed).
     """
 
     arrival_radius_m: float = param(
-        0.5,
+        ARRIVAL_RADIUS_DEFAULT_M,
         unit="m",
         min=ARRIVAL_RADIUS_MIN_M,
         max=50.0,

@@ -157,7 +157,7 @@ def test_arrival_tolerance(dx_m: float, dyaw_deg: float, arrived: bool) -> None:
     path = straight(0.0, 20.0)
     nav = nav_state_at(20.0 + dx_m, 0.0, 1.0, math.radians(dyaw_deg))
     # WHEN guidance runs
-    params = GuidanceParams(arrival_position_tol_m=0.5, arrival_yaw_tol_deg=10.0)
+    params = GuidanceParams(arrival_yaw_tol_deg=10.0).with_arrival_radius(0.5)  # MIS_ARRIVE_R_M
     r, state, _ = step(nav, path, GuidanceState(s_proj_m=19.0), params, DT)
     # THEN arrival follows the tolerance and latches
     assert r.arrived is arrived
