@@ -37,9 +37,6 @@ from hil_sim.model.hull import immersed_fraction
 from hil_sim.model.params import Coefficients
 from onboard.protocol.conventions import body_to_ned_matrix
 
-_sin = math.sin
-_cos = math.cos
-
 
 class BodyState(NamedTuple):
     """Truth state eta + nu (immutable). NED position (m), Euler angles (rad), body velocities and rates."""
@@ -89,10 +86,10 @@ def derivatives(state: tuple[float, ...], inputs: tuple[float, ...], c: Coeffici
     _x, _y, z, phi, theta, psi, u, v, w, p, q, r = state
     dr, dsp, dss, n, cn, ce, cd = inputs
 
-    sphi = _sin(phi)
-    cphi = _cos(phi)
-    sth = _sin(theta)
-    cth = _cos(theta)
+    sphi = math.sin(phi)
+    cphi = math.cos(phi)
+    sth = math.sin(theta)
+    cth = math.cos(theta)
 
     # Rotation body -> NED, R = Rz(psi) Ry(theta) Rx(phi) (Fossen eq. 2.18): the one in the bus contract.
     r11, r12, r13, r21, r22, r23, r31, r32, r33 = body_to_ned_matrix(phi, theta, psi)

@@ -52,12 +52,11 @@ class ActuatorCommand:
         return stern_combine(self.stern_port_rad, self.stern_starboard_rad)[1]
 
     def is_finite(self) -> bool:
-        isfinite = math.isfinite
         return (
-            isfinite(self.rudder_rad)
-            and isfinite(self.stern_port_rad)
-            and isfinite(self.stern_starboard_rad)
-            and isfinite(self.propeller_rps)
+            math.isfinite(self.rudder_rad)
+            and math.isfinite(self.stern_port_rad)
+            and math.isfinite(self.stern_starboard_rad)
+            and math.isfinite(self.propeller_rps)
         )
 
 
@@ -117,17 +116,6 @@ class ActuatorLimits:
         object.__setattr__(self, "fin_rate_limit_radps", math.radians(self.fin_rate_limit_degps))
 
 
-# Flag bits as plain ints: saturate builds an int and the IntFlag once (IntFlag arithmetic is slow).
-_RUDDER_LIMIT = ActuatorFlag.RUDDER_LIMIT.value
-_STERN_LIMIT = ActuatorFlag.STERN_LIMIT.value
-_ROLL_LIMIT = ActuatorFlag.ROLL_LIMIT.value
-_PROPELLER_LIMIT = ActuatorFlag.PROPELLER_LIMIT.value
-_RUDDER_RATE = ActuatorFlag.RUDDER_RATE.value
-_STERN_RATE = ActuatorFlag.STERN_RATE.value
-_PROPELLER_RATE = ActuatorFlag.PROPELLER_RATE.value
-_NO_FLAGS = ActuatorFlag(0)
-
-
 def _clamp(value: float, lo: float, hi: float) -> tuple[float, bool]:
     clamped = min(max(value, lo), hi)
     return clamped, clamped != value
@@ -154,41 +142,41 @@ def saturate(
     """
     if not desired.is_finite():
         return ActuatorCommand(0.0, 0.0, 0.0, 0.0, ActuatorFlag.NAN_INPUT)
-    flags = 0  # plain int while building, see _RUDDER_LIMIT
+    flags = ActuatorFlag(0)
     dt_s = dt_s if math.isfinite(dt_s) and dt_s > 0.0 else 0.0
 
     rud_lim, st_lim = limits.rudder_limit_rad, limits.stern_limit_rad
     rudder, hit = _clamp(desired.rudder_rad, -rud_lim, rud_lim)
     if hit:
-        flags |= _RUDDER_LIMIT
+        flags |= ActuatorFlag.RUDDER_LIMIT
     common, diff = stern_combine(desired.stern_port_rad, desired.stern_starboard_rad)
     common, hit = _clamp(common, -st_lim, st_lim)
     if hit:
-        flags |= _STERN_LIMIT
+        flags |= ActuatorFlag.STERN_LIMIT
     room = st_lim - abs(common)
     diff, hit = _clamp(diff, -room, room)
     if hit:
-        flags |= _ROLL_LIMIT
+        flags |= ActuatorFlag.ROLL_LIMIT
     port, stbd = stern_split(common, diff)
     rps, hit = _clamp(desired.propeller_rps, limits.propeller_min_rps, limits.propeller_max_rps)
     if hit:
-        flags |= _PROPELLER_LIMIT
+        flags |= ActuatorFlag.PROPELLER_LIMIT
 
     fin_rate = limits.fin_rate_limit_radps
     rudder, hit = _rate(rudder, previous.rudder_rad, fin_rate, dt_s)
     if hit:
-        flags |= _RUDDER_RATE
+        flags |= ActuatorFlag.RUDDER_RATE
     port, hit_p = _rate(port, previous.stern_port_rad, fin_rate, dt_s)
     stbd, hit_s = _rate(stbd, previous.stern_starboard_rad, fin_rate, dt_s)
     if hit_p or hit_s:
-        flags |= _STERN_RATE
+        flags |= ActuatorFlag.STERN_RATE
     rps, hit = _rate(rps, previous.propeller_rps, limits.propeller_rate_limit_rps_per_s, dt_s)
     if hit:
-        flags |= _PROPELLER_RATE
+        flags |= ActuatorFlag.PROPELLER_RATE
 
     # A previous command from outside (e.g. an abort command) may lie beyond the limits: clamp once more.
     rudder = min(max(rudder, -rud_lim), rud_lim)
     port = min(max(port, -st_lim), st_lim)
     stbd = min(max(stbd, -st_lim), st_lim)
     rps = min(max(rps, limits.propeller_min_rps), limits.propeller_max_rps)
-    return ActuatorCommand(rudder, port, stbd, rps, ActuatorFlag(flags) if flags else _NO_FLAGS)
+    return ActuatorCommand(rudder, port, stbd, rps, flags)

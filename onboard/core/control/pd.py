@@ -247,9 +247,6 @@ class ControlDebug:
     raw: ActuatorCommand
 
 
-_NAN_INPUT = ActuatorFlag.NAN_INPUT.value  # a plain int: IntFlag & IntFlag costs ~1 us
-
-
 def _fin_scale(g: PdGains, water_speed_mps: float) -> float:
     """The fin-feedback scale (schedule_speed / u_w)^2 within [1 / max, max] (1 for a non-finite u_w)."""
     if not math.isfinite(water_speed_mps):
@@ -351,7 +348,7 @@ def step(
     port, stbd = stern_split(stern, roll_diff)
     raw = ActuatorCommand(rudder + rudder_ff, port, stbd, rps + rps_ff)
     command = saturate(raw, state.command, params.limits, dt_s)
-    if int(command.flags) & _NAN_INPUT:
+    if command.flags & ActuatorFlag.NAN_INPUT:
         new_state = ControllerState(errors=None, command=command)
     else:
         new_state = ControllerState(

@@ -109,55 +109,39 @@ class FailsafeResult:
     reason: str
 
 
-# Flag bits as plain ints (IntFlag arithmetic costs ~1 us per operation; check runs every tick).
-_NAV_STALE = FailsafeFlag.NAV_STALE.value
-_DEPTH_LIMIT = FailsafeFlag.DEPTH_LIMIT.value
-_AREA_BOUND = FailsafeFlag.AREA_BOUND.value
-_OVERRUNS = FailsafeFlag.OVERRUNS.value
-_NO_FLAGS = FailsafeFlag(0)
-_ALL_PASS = FailsafeResult(abort=False, flags=_NO_FLAGS, newly=_NO_FLAGS, reason="")
-
-
 def check(
     nav: NavState, loop_late_s: float, state: FailsafeState, params: FailsafeParams
 ) -> tuple[FailsafeResult, FailsafeState]:
     """Run every failsafe check on the navigation solution ``nav`` and how long the loop has been behind its
     schedule, ``loop_late_s`` (s, 0 = on time)."""
-    flags = 0
+    flags = FailsafeFlag(0)
     reasons: list[str] = []
 
-    isfinite = math.isfinite
-    finite = isfinite(nav.x_m) and isfinite(nav.y_m) and isfinite(nav.depth_m)
+    finite = math.isfinite(nav.x_m) and math.isfinite(nav.y_m) and math.isfinite(nav.depth_m)
     if not nav.valid or not finite:  # stale: the estimator's conditions, with params.nav_timeout_s
-        flags |= _NAV_STALE
+        flags |= FailsafeFlag.NAV_STALE
         reasons.append(
             f"navigation stale (conditions {nav.conditions.name or 0}, attitude age "
             f"{nav.attitude_age_s:.2f} s, depth age {nav.depth_age_s:.2f} s)"
         )
     if math.isfinite(nav.depth_m) and nav.depth_m > params.max_depth_m:
-        flags |= _DEPTH_LIMIT
+        flags |= FailsafeFlag.DEPTH_LIMIT
         reasons.append(f"depth {nav.depth_m:.2f} m beyond limit {params.max_depth_m:.2f} m")
     if finite and not (
         params.area_x_min_m <= nav.x_m <= params.area_x_max_m
         and params.area_y_min_m <= nav.y_m <= params.area_y_max_m
     ):
-        flags |= _AREA_BOUND
+        flags |= FailsafeFlag.AREA_BOUND
         reasons.append(f"position ({nav.x_m:.1f}, {nav.y_m:.1f}) m outside the operating area")
     if loop_late_s > params.max_loop_late_s:
-        flags |= _OVERRUNS
+        flags |= FailsafeFlag.OVERRUNS
         reasons.append(
             f"control loop behind its schedule for {loop_late_s:.2f} s (limit {params.max_loop_late_s:g} s)"
         )
 
-    if flags == state.flags:
-        new_state = state  # unchanged (immutable): no new object
-    else:
-        new_state = FailsafeState(flags=FailsafeFlag(flags))
-    if not flags:
-        return _ALL_PASS, new_state
-    newly = FailsafeFlag(flags & ~int(state.flags))
-    result = FailsafeResult(abort=True, flags=new_state.flags, newly=newly, reason="; ".join(reasons))
-    return result, new_state
+    new_state = state if flags == state.flags else FailsafeState(flags=flags)
+    newly = flags & ~state.flags
+    return FailsafeResult(abort=bool(flags), flags=flags, newly=newly, reason="; ".join(reasons)), new_state
 
 
 def abort_command(params: FailsafeParams) -> ActuatorCommand:
