@@ -27,6 +27,7 @@ import pytest
 from hil_sim.scenario import free_port
 from onboard.app.config import load_config
 from tests.e2e.procs import processes, stop
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.e2e
 
@@ -90,7 +91,9 @@ def test_firmware_stalls_shorter_than_the_timeout_do_not_abort_a_100_hz_mission(
                 time.sleep(STALL_S)
             finally:
                 os.kill(onboard.pid, signal.SIGCONT)
-        time.sleep(1.0)  # the last stall's effect, if any, reaches the truth log
+        # the last stall's effect, if any, reaches the truth log: 50 more control periods in it
+        rows_after_stalls = len(_truth_rows(truth))
+        wait_until(lambda: len(_truth_rows(truth)) >= rows_after_stalls + 50, 30.0, "50 more truth rows")
         stop(bench)
         stop(onboard)
     rows = _truth_rows(truth)

@@ -7,8 +7,11 @@ import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
+
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.e2e
 
@@ -48,26 +51,33 @@ def test_onboard_help_says_what_it_reads_sends_and_at_what_rate() -> None:
     assert "Reads" in text and "sends" in text and "20 Hz" in text
 
 
-def test_waits_for_a_missing_bus_then_stops_cleanly_on_sigterm() -> None:
+def test_waits_for_a_missing_bus_then_stops_cleanly_on_sigterm(tmp_path: Path) -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]  # a free port where no hub listens
-    proc = subprocess.Popen(
-        [*RUN, "--set", f'bus.channel="ws://127.0.0.1:{port}/"', "--set", "bus.retry_log_interval_s=0.5"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    log = tmp_path / "onboard.log"
+    with open(log, "w") as out_file:
+        proc = subprocess.Popen(
+            [*RUN, "--set", f'bus.channel="ws://127.0.0.1:{port}/"', "--set", "bus.retry_log_interval_s=0.5"],
+            stdout=out_file,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
     try:
-        time.sleep(2.0)
-        assert proc.poll() is None  # still waiting, not crashed
+        # GIVEN it has said twice that it waits for the bus (every 0.5 s), still running, not crashed
+        wait_until(
+            lambda: log.read_text().count("waiting for remote bus") >= 2 or proc.poll() is not None,
+            30.0,
+            "waiting for remote bus, twice",
+        )
+        assert proc.poll() is None, log.read_text()
         proc.send_signal(signal.SIGTERM)
-        out, _ = proc.communicate(timeout=10)
+        proc.wait(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 0
-    assert "waiting for remote bus" in out
+    out = log.read_text()
+    assert proc.returncode == 0, out
     assert "Traceback" not in out
 
 
