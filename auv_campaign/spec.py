@@ -27,7 +27,11 @@ Caps (refused before anything is drawn or expanded): ``random_missions.count`` <
 ``onboard.toml``, 64), and the total number of runs (the product of the number of missions and of every
 axis) <= 1000000 (:data:`MAX_RUNS`).
 
-Depths are >= 0 (positive down: a start, goal or random depth above the surface is refused). A current's
+A mission's goals and obstacles are in the mission file format, read by its one parser
+(:mod:`auv_common.mission_yaml`), and their values judged by the vehicle's own rules
+(``onboard.core.mission.validate.check_goal_values`` / ``check_obstacle_values``: finite, a goal's depth
+>= 0 and yaw within +-360 deg, a radius > 0). Depths are >= 0 (positive down: a start, goal or random depth
+above the surface is refused). A current's
 direction is normalised to [0, 360) deg, and to 0 when its speed is 0 (:func:`normalise_current`), before
 duplicate detection, labels and run ids: ``[0.1, 360]`` is ``[0.1, 0]``, ``[0, 20]`` is ``[0, 0]``,
 ``[0.25, -45]`` is ``c0.25d315``.
@@ -561,15 +565,14 @@ def _not_above_surface(key: str, depth_m: float) -> None:
 
 def _goal(key: str, index: int, value: Any) -> tuple[float, float, float, float | None]:
     """A goal pose in the mission format; its values judged by the onboard's one rule
-    (``check_goal_values``: finite, a yaw NaN or within +-360 deg), so a spec refuses what the vehicle
-    would."""
+    (``check_goal_values``: finite, depth >= 0, a yaw NaN or within +-360 deg), so a spec refuses what the
+    vehicle would."""
     from onboard.core.mission.model import Goal
     from onboard.core.mission.validate import check_goal_values
 
     g = _mission_format(mission_yaml.parse_goal, key, value)
     yaw_rad = None if g.yaw_deg is None else math.radians(g.yaw_deg)
     _refuse_problems(key, check_goal_values(index, Goal(g.x_m, g.y_m, g.depth_m, yaw_rad)))
-    _not_above_surface(key, g.depth_m)
     return g.x_m, g.y_m, g.depth_m, g.yaw_deg
 
 

@@ -5,7 +5,8 @@ no clock, no I/O; a caller with a deadline passes ``expired`` (polled between le
 
 Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is no second copy of one):
 
-1. Values: every number is finite (:meth:`Goal.invalid_fields`, the model's one rule); a goal's yaw is
+1. Values: every number is finite (:meth:`Goal.invalid_fields`, the model's one rule); a goal's depth is
+   not above the surface (>= 0, positive down); a goal's yaw is
    None (free; NaN on the wire) or within +-360 deg (:data:`YAW_LIMIT_RAD`), judged as the door received
    it, before any wrap into (-180, 180] (:func:`check_goal_values`, which every door asks: MAVLink items,
    mission files, persisted plans, campaign specs).
@@ -144,9 +145,12 @@ def _not_finite(item: Item, index: int, obj: Goal | Obstacle) -> list[Problem]:
 
 
 def check_goal_values(index: int, goal: Goal) -> list[Problem]:
-    """The configuration-free rules of one goal: every number finite; the yaw None (free) or within
-    +-:data:`YAW_LIMIT_RAD`. A door asks it with the yaw as received (degrees to radians, not wrapped)."""
+    """The configuration-free rules of one goal: every number finite; the depth not above the surface
+    (>= 0, positive down); the yaw None (free) or within +-:data:`YAW_LIMIT_RAD`. A door asks it with the
+    yaw as received (degrees to radians, not wrapped)."""
     out = _not_finite("goal", index, goal)
+    if "depth_m" not in goal.invalid_fields() and goal.depth_m < 0.0:
+        out.append(Problem("goal", index, "depth", f"depth {_fmt(goal.depth_m)} m is above the surface"))
     yaw = goal.yaw_rad
     if yaw is not None and "yaw_rad" not in goal.invalid_fields() and abs(yaw) > YAW_LIMIT_RAD:
         limit_deg = _fmt(math.degrees(YAW_LIMIT_RAD))
@@ -195,10 +199,8 @@ def _check_goal(i: int, g: Goal, config: CoreConfig) -> list[Problem]:
                     f"{name} {_fmt(v)} m is outside the failsafe operating area [{_fmt(lo)}, {_fmt(hi)}] m",
                 )
             )
-    if "depth_m" not in bad:
-        if g.depth_m < 0.0:
-            out.append(Problem("goal", i, "depth", f"depth {_fmt(g.depth_m)} m is above the surface"))
-        elif g.depth_m >= fs.max_depth_m:
+    if "depth_m" not in bad and g.depth_m >= 0.0:  # above the surface: check_goal_values'
+        if g.depth_m >= fs.max_depth_m:
             out.append(
                 Problem(
                     "goal",

@@ -458,7 +458,7 @@ BAD: list[tuple[str, Any, str]] = [
     (f"{START}/y_m", float("inf"), "missions[0].start.y_m: must be finite"),
     (f"{START}/zz", 1, "missions[0].start.zz: unknown key"),
     (f"{START}/depth_m", -0.5, "missions[0].start.depth_m: must be >= 0 (positive down; < 0 is above the"),
-    (f"{GOAL}/depth_m", -1, "missions[0].goals[0].depth_m: must be >= 0"),
+    (f"{GOAL}/depth_m", -1, "missions[0].goals[0].depth_m: depth -1 m is above the surface"),  # the vehicle's
     ("missions/0/goals", [], "missions[0].goals: must not be empty"),
     ("missions/0/goals", DELETE, "missions[0].goals: missing"),
     (f"{GOAL}/depth_m", DELETE, "missions[0].goals[0].depth_m: missing"),
@@ -550,7 +550,7 @@ BAD: list[tuple[str, Any, str]] = [
     (
         "sweep/vehicle",
         [{"set": {"fins.area_m2": 0.5}}],
-        "sweep.vehicle[0].set.fins.area_m2: area_m2 out of range",
+        "sweep.vehicle[0].set.fins.area_m2: area_m2 must be in (0, 0.1) m^2, got 0.5",
     ),
     ("sweep/vehicle", [{}, {}], "sweep.vehicle[1]: same as sweep.vehicle[0]"),
     ("time_limit_factor", 0, "time_limit_factor: must be > 0, got 0"),

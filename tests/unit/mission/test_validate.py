@@ -58,6 +58,9 @@ def test_depth_above_the_surface_is_refused_by_the_validator_not_the_model() -> 
     m = Mission((g(10, 0, -1.0),))
     m.validate()  # the model checks only finiteness: one copy of "depth >= 0", here:
     assert check_mission(m, CFG).first == Problem("goal", 0, "depth", "depth -1 m is above the surface")
+    # a configuration-free rule: every door asks it (campaign specs, persisted plans) with check_goal_values
+    above = Problem("goal", 0, "depth", "depth -1 m is above the surface")
+    assert check_goal_values(0, m.goals[0]) == [above]
 
 
 def test_too_many_goals_are_refused() -> None:
