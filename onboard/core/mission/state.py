@@ -40,7 +40,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, replace
 
-from onboard.protocol.messages import MissionStateCode
+from onboard.protocol.messages import LIVE_MISSION_STATES, MissionStateCode
 
 #: The mission states: the bus contract's enumeration (the DBC's ONBOARD_HEARTBEAT node_state values), so the
 #: vocabulary is spelled once; names are what the operator reads, values what the bus carries.
@@ -73,14 +73,27 @@ class MissionStatus:
     reason: str = "boot"
 
     @property
+    def live(self) -> bool:
+        """True in a state whose actuators may move (:data:`LIVE_STATES`; COMPLETE: :func:`actuators_live`
+        says whether they do)."""
+        return self.state in LIVE_STATES
+
+    @property
     def active(self) -> bool:
-        """True when the vehicle may be moving under its own power (the failsafes apply)."""
-        return self.state in (MissionState.RUNNING, MissionState.HOLD, MissionState.COMPLETE)
+        """True when the vehicle may be moving under its own power: the failsafes apply
+        (:data:`ACTIVE_STATES`)."""
+        return self.state in ACTIVE_STATES
 
 
-#: The states in which the actuators may move under the vehicle's own command (COMPLETE only while it
-#: loiters: :func:`actuators_live`). The failsafes apply in :attr:`MissionStatus.active`.
-LIVE_STATES = frozenset({MissionState.ARMED, MissionState.RUNNING, MissionState.HOLD})
+#: The one definition of the "live" states: those in which the actuators may move under the vehicle's own
+#: command: ARMED, RUNNING, HOLD, COMPLETE (COMPLETE only while it loiters: :func:`actuators_live`). It is the
+#: bus contract's set (``messages.LIVE_MISSION_STATES``: the actuator node obeys ARMED commands only while the
+#: onboard heartbeat names one of these), spelled there because the bench, which may import only the
+#: protocol, applies it too; the core asks it here.
+LIVE_STATES: frozenset[MissionState] = LIVE_MISSION_STATES
+#: The live states in which the vehicle may be moving under its own power, so the failsafes apply: all but
+#: ARMED (still: the propeller stays off until START).
+ACTIVE_STATES: frozenset[MissionState] = LIVE_STATES - {MissionState.ARMED}
 
 
 def actuators_live(state: MissionState, loitering: bool) -> bool:
