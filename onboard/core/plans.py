@@ -17,8 +17,10 @@ from onboard.core.planner.path import ArcSegment, Path
 from onboard.core.planner.planner import inflate, plan
 from onboard.protocol.conventions import wrap_pi
 
-#: A loiter path's circle is drawn this many laps: the lap flown and one lap of look-ahead. The loiter
-#: maneuver evaluates it modulo one lap (:func:`onboard.core.executive.loiter.wrap_lap`): a circle, no end.
+#: A loiter path ends on its circle drawn this many times, one segment of one lap each (a projection on an
+#: arc is taken modulo one turn, so one segment never sweeps more): the lap flown and one lap of look-ahead.
+#: The loiter maneuver evaluates it modulo one lap (:func:`onboard.core.executive.loiter.wrap_lap`): a
+#: circle, with no end.
 LOITER_CIRCLE_LAPS = 2
 
 
@@ -105,9 +107,9 @@ def compute_plan(request: PlanRequest) -> Path:
         start_depth_m=request.start_depth_m,
         goal_depth_m=g.depth_m,
     )
-    circle = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi * LOITER_CIRCLE_LAPS)
+    lap = ArcSegment(g.x_m, g.y_m, r, 1, entry_yaw, 2.0 * math.pi)
     return Path(
-        (*run_in.segments, circle),
+        (*run_in.segments, *(lap,) * LOITER_CIRCLE_LAPS),
         start_depth_m=g.depth_m,
         end_depth_m=g.depth_m,
         virtual_goals=run_in.virtual_goals,

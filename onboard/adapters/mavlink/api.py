@@ -69,8 +69,8 @@ class VehicleSnapshot:
     r_radps: float = NAN
     cross_track_m: float = NAN
     along_track_m: float = NAN
-    yaw_error_rad: float = NAN
-    depth_error_m: float = NAN
+    e_yaw_rad: float = NAN  # guidance's errors, desired - actual (the tick record's names)
+    e_depth_m: float = NAN
     goal_distance_m: float = NAN
     rudder_rad: float = NAN
     stern_port_rad: float = NAN
@@ -79,6 +79,9 @@ class VehicleSnapshot:
     rudder_saturated: bool = False
     stern_saturated: bool = False
     propeller_saturated: bool = False
+    actuator_flags: int = 0  # onboard.core.control.actuators.ActuatorFlag bits of the command
+    nav_conditions: int = 0  # onboard.core.nav.types.NavCondition bits: what is wrong with navigation
+    failsafe_flags: int = 0  # onboard.core.safety.failsafe.FailsafeFlag bits: the checks failing this tick
     failsafe: str | None = None
     overruns: int = 0
     loop_load: float = NAN  # fraction of the tick period used by the last tick (0..1+)

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from typing import Any, Protocol
@@ -79,39 +80,21 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
 def snapshot(
     ap: Autopilot, out: TickRecord, now_s: float, overruns: int = 0, loop_load: float = math.nan
 ) -> api.VehicleSnapshot:
-    """The telemetry snapshot of one tick."""
-    n, r, c = out.nav, out.reference, out.command
-    nan = math.nan
-    goal_distance = nan
+    """The telemetry snapshot of one tick: the tick record's numbers under the record's own names (every
+    :meth:`~onboard.core.record.TickRecord.row` value whose name the snapshot has), the state's truth
+    (:func:`status_fields`), and what only the link needs (goal distance, saturation bits, the path)."""
+    n, c = out.nav, out.command
+    goal_distance = math.nan
     if ap.mission.goals and out.status.goal_index < len(ap.mission.goals):
         g = ap.mission.goals[out.status.goal_index]
         goal_distance = math.hypot(g.x_m - n.x_m, g.y_m - n.y_m)
     fields = status_fields(ap)
     fields.update(state=out.status.state, current_goal=out.status.goal_index, reason=out.status.reason)
+    fields.update((k, v) for k, v in out.row().items() if k in _FROM_RECORD)
     return api.VehicleSnapshot(
         t_s=now_s,
         **fields,
-        x_m=n.x_m,
-        y_m=n.y_m,
-        depth_m=n.depth_m,
-        roll_rad=n.roll_rad,
-        pitch_rad=n.pitch_rad,
-        yaw_rad=n.yaw_rad,
-        u_mps=n.u_mps,
-        v_mps=n.v_mps,
-        w_mps=n.w_mps,
-        p_radps=n.p_radps,
-        q_radps=n.q_radps,
-        r_radps=n.r_radps,
-        cross_track_m=r.cross_track_m if r else nan,
-        along_track_m=r.along_track_m if r else nan,
-        yaw_error_rad=r.e_yaw_rad if r else nan,
-        depth_error_m=r.e_depth_m if r else nan,
         goal_distance_m=goal_distance,
-        rudder_rad=c.rudder_rad,
-        stern_port_rad=c.stern_port_rad,
-        stern_starboard_rad=c.stern_starboard_rad,
-        propeller_rps=c.propeller_rps,
         rudder_saturated=bool(c.flags & ActuatorFlag.RUDDER_LIMIT),
         stern_saturated=bool(c.flags & ActuatorFlag.STERN_LIMIT),
         propeller_saturated=bool(c.flags & ActuatorFlag.PROPELLER_LIMIT),
@@ -122,3 +105,8 @@ def snapshot(
         path_kind=ap.path_kind if ap.path is not None else "",
         path_goal_index=ap.path_goal_index if ap.path is not None else -1,
     )
+
+
+#: The snapshot's fields that come from the tick record, under the same name (the state is the snapshot's
+#: enum, not the row's name of it).
+_FROM_RECORD = frozenset(f.name for f in dataclasses.fields(api.VehicleSnapshot)) - {"state"}

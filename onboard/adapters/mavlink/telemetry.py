@@ -345,14 +345,14 @@ class Telemetry:
             )
         elif msg_id == mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT:
             bearing = math.degrees(s.yaw_rad)
-            target = math.degrees(s.yaw_rad + s.yaw_error_rad)
+            target = math.degrees(s.yaw_rad + s.e_yaw_rad)
             m = mavlink.MAVLink_nav_controller_output_message(
                 0.0,
                 0.0,
                 _i(bearing, -32768, 32767),
                 _i(target, -32768, 32767),
                 _i(s.goal_distance_m, 0, 65535),
-                _f(s.depth_error_m),
+                _f(s.e_depth_m),
                 0.0,
                 _f(s.cross_track_m),
             )
