@@ -434,7 +434,15 @@ def _with(path: str, value: Any) -> dict[str, Any]:
     return data
 
 
-DELETE = object()
+class _Delete:
+    """The key is removed. Its repr is stable: the test ids are the same in every process (pytest-xdist
+    compares the workers' collections)."""
+
+    def __repr__(self) -> str:
+        return "DELETE"
+
+
+DELETE = _Delete()
 START = "missions/0/start"
 GOAL = "missions/0/goals/0"
 
