@@ -34,13 +34,12 @@ import time
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-from can.interfaces.virtual import VirtualBus
-
 from auv_campaign.execute import Executor, default_workers, execute
 from auv_campaign.runner import fly, timed
 from auv_campaign.spec import RunSpec, parse_spec
 from hil_sim.scenario import RunOptions, Scenario, run_scenario
 from onboard.protocol.codec import FrameReceiver, FrameSender
+from onboard.protocol.local_bus import LocalBus
 
 #: The mission: (x_m, y_m, depth_m, yaw_deg) of the start and of the one goal.
 START = (-15.0, 0.0, 1.0, 0.0)
@@ -116,15 +115,15 @@ def _timed_methods(timings: dict[str, float]) -> Iterator[None]:
     targets: list[tuple[type, str, str]] = [
         (FrameSender, "encode", "codec_e2e_s"),
         (FrameReceiver, "receive", "codec_e2e_s"),
-        (VirtualBus, "send", "bus_s"),
-        (VirtualBus, "recv", "bus_s"),
+        (LocalBus, "send", "bus_s"),
+        (LocalBus, "recv", "bus_s"),
     ]
     saved: list[tuple[type, str, Any]] = []
 
     try:
         for cls, name, key in targets:
             saved.append((cls, name, cls.__dict__.get(name)))
-            count = "bus_sends" if (cls, name) == (VirtualBus, "send") else None
+            count = "bus_sends" if (cls, name) == (LocalBus, "send") else None
             setattr(cls, name, timed(getattr(cls, name), timings, key, count))
         yield
     finally:

@@ -1,7 +1,8 @@
 """One campaign run: the real onboard core against the real simulator in one process, in lock-step.
 
 The two sides are the programs' own pieces, wired as ``auv-hil scenario`` wires them over processes, but on a
-``virtual`` python-can bus of their own (one channel per run) and driven from one thread:
+``local`` python-can bus of their own (:class:`onboard.protocol.local_bus.LocalBus`, one channel per run: each
+frame is handed over without a copy) and driven from one thread:
 
 - the bench: :class:`hil_sim.bench_program.Bench` (6-DOF model, actuator node with its watchdog, sensors)
   through :class:`hil_sim.bench_program.LockstepBench` (the same three calls ``auv-hil run --mode lockstep``
@@ -24,6 +25,7 @@ onboard's own view; the onboard's final state and reason are reported next to it
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import math
@@ -33,8 +35,6 @@ import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
-
-from can.interfaces.virtual import VirtualBus
 
 from auv_campaign.metrics import run_row
 from auv_campaign.spec import RunSpec
@@ -60,6 +60,7 @@ from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
 from onboard.core.planner.planner import plan
+from onboard.protocol.bus import open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
@@ -115,8 +116,11 @@ def onboard_config(spec: RunSpec) -> OnboardConfig:
 # alive counters live in each port's sender and receiver, not in the codec).
 @functools.lru_cache(maxsize=64)
 def effective_onboard_config(sets: tuple[str, ...]) -> OnboardConfig:
-    """The packaged onboard configuration with the campaign's lock-step settings and ``sets``."""
-    return build_config(None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', *sets])
+    """The packaged onboard configuration with the campaign's lock-step settings (its bus the ``local``
+    one, each run on a channel of its own) and ``sets``."""
+    return build_config(
+        None, ['loop.time_source="lockstep"', 'loop.telemetry_csv=""', 'bus.interface="local"', *sets]
+    )
 
 
 @functools.lru_cache(maxsize=64)
@@ -317,19 +321,18 @@ def _drive(
     bench: Bench, autopilot: Autopilot, cfg: OnboardConfig, hil: HilConfig, truth: _Rows, result: BenchResult
 ) -> None:
     channel = f"campaign-{os.getpid()}-{next(_channels)}-{uuid.uuid4().hex[:8]}"
+    bus = dataclasses.replace(cfg.bus, channel=channel)  # the campaign's [bus]: local
     codec = _codec()
     bench_listen = [codec.frame_id(c) for c in BENCH_LISTENS]
-    bench_port = BusPort(VirtualBus(channel=channel), lambda: bench.state.t_s, bench_listen, codec)
+    bench_port = BusPort(open_bus(bus, listen_ids=bench_listen), lambda: bench.state.t_s, bench_listen, codec)
     steps = LockstepBench(bench, bench_port, hil, truth, result)
     # The onboard checks rates as on a vehicle, on the lock-step clock: tick x control period (it runs before
     # the start too, while the simulated time stands still; a period's frames share its tick); not with a loop
     # faster than the bus contract's (SYNC and status follow the loop). The bench's port does not: before the
     # start the onboard sends its heartbeat every tick, 20x its cycle.
+    onboard_listen = [codec.frame_id(c) for c in LISTEN]
     onboard_port = BusPort(
-        VirtualBus(channel=channel),
-        lambda: steps.tick * steps.period_s,
-        [codec.frame_id(c) for c in LISTEN],
-        codec,
+        open_bus(bus, listen_ids=onboard_listen), lambda: steps.tick * steps.period_s, onboard_listen, codec
     )
     if codec.rates_checkable(steps.period_s):
         onboard_port.receiver.check_rates(receive_period_s=steps.period_s)

@@ -25,6 +25,7 @@ import dataclasses
 import json
 import logging
 import math
+import operator
 import signal
 import sys
 import threading
@@ -250,13 +251,21 @@ def _clip(value: float, lo: float, hi: float) -> float:
     return min(max(value, lo), hi)
 
 
+#: Every field of each measurement type, read at once (its time and readings, all floats): the finiteness
+#: check of :func:`sensor_frames` (``dataclasses.astuple`` deep-copied each one, ~5 us a measurement).
+_READINGS = {
+    cls: operator.attrgetter(*(f.name for f in dataclasses.fields(cls)))
+    for cls in (AhrsMeasurement, DepthMeasurement, DvlMeasurement, FixMeasurement)
+}
+
+
 def sensor_frames(meas: Measurement) -> list[m.BusMessage]:
     """The bus messages of one measurement (values clipped to the DBC ranges, as a real sensor saturates).
 
     A measurement with a non-finite value gives no frame (a real sensor drops an invalid reading).
     """
     t = meas.t_sample_s
-    if not all(math.isfinite(v) for v in dataclasses.astuple(meas)):
+    if not all(map(math.isfinite, _READINGS[type(meas)](meas))):
         return []
     if isinstance(meas, AhrsMeasurement):
         return [

@@ -22,6 +22,7 @@ status, the latest navigation solution, what the loop reported) and nothing of t
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -207,7 +208,7 @@ class Autopilot:
             self.pipeline.new_path()
 
     # --- one tick ---------------------------------------------------------------------------------
-    def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> TickRecord:
+    def step(self, cache: Mapping[type, Any], now_s: float, dt_s: float) -> TickRecord:
         """One tick at ``now_s`` (s) of period ``dt_s`` (s) from the latest-value cache of bus messages."""
         return self.pipeline.tick(self, cache, now_s, dt_s)
 

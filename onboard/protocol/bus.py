@@ -5,6 +5,8 @@ Interfaces, chosen by configuration and nothing else:
 - ``remote`` (bench default between processes): a python-can-remote hub on 127.0.0.1, hosted by the bench
   (``auv-hil run``); channel ``ws://127.0.0.1:PORT/``. No root, no kernel module, nothing leaves the machine.
 - ``virtual``: inside one process (tests); channel is any name.
+- ``local``: inside one process, every receiver gets the sent frame itself, not a copy
+  (:class:`onboard.protocol.local_bus.LocalBus`): the one-process lock-step of a campaign run.
 - ``socketcan``: a vehicle's ``can0`` (or ``vcan0`` where the kernel has it).
 - ``udp_multicast``: only with ``hop_limit = 0`` and only when the group routes via ``lo``; by default
   multicast frames would go out on the LAN, so anything else is refused.
@@ -50,8 +52,8 @@ _SOCKETCAN_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,14}$")
 class BusConfig:
     """The ``[bus]`` table of a program's TOML configuration.
 
-    interface: remote | virtual | socketcan | udp_multicast.
-    channel: remote: hub URL ``ws://host:port/``; virtual: a name; socketcan: ``can0``/``vcan0``;
+    interface: remote | virtual | local | socketcan | udp_multicast.
+    channel: remote: hub URL ``ws://host:port/``; virtual, local: a name; socketcan: ``can0``/``vcan0``;
         udp_multicast: the multicast group address.
     hub_channel: the in-hub virtual channel (used by the program that hosts the hub).
     udp_port, hop_limit: udp_multicast only; hop_limit must be 0.
@@ -62,7 +64,7 @@ class BusConfig:
         doubling after each failed attempt up to this (:class:`onboard.protocol.port.BusPort`).
     """
 
-    interface: Literal["remote", "virtual", "socketcan", "udp_multicast"] = "remote"
+    interface: Literal["remote", "virtual", "local", "socketcan", "udp_multicast"] = "remote"
     channel: str = DEFAULT_REMOTE_CHANNEL
     hub_channel: str = DEFAULT_HUB_CHANNEL
     udp_port: int = 43113
@@ -82,8 +84,8 @@ class BusConfig:
             )
         if self.interface == "remote":
             remote_endpoint(self.channel)
-        elif self.interface == "virtual":
-            require(bool(self.channel), "virtual channel must not be empty")
+        elif self.interface in ("virtual", "local"):
+            require(bool(self.channel), f"{self.interface} channel must not be empty")
         elif self.interface == "socketcan":
             require(
                 bool(_SOCKETCAN_NAME.match(self.channel)),
@@ -178,6 +180,10 @@ def _open_once(cfg: BusConfig, filters: list[CanFilter] | None) -> can.BusABC:
         from can.interfaces.virtual import VirtualBus
 
         return VirtualBus(channel=cfg.channel, receive_own_messages=False)
+    if cfg.interface == "local":
+        from onboard.protocol.local_bus import LocalBus
+
+        return LocalBus(channel=cfg.channel, can_filters=filters)  # filtered as frames are sent
     if cfg.interface == "remote":
         from can_remote import RemoteBus
 
@@ -207,9 +213,9 @@ def open_bus(
 
     ``listen_ids``: the standard ids this node receives, as acceptance filters where they are applied
     outside this process: in the hub (``remote``) and in the kernel (``socketcan``), so a flood of other
-    ids costs this process nothing. In-process buses (``virtual``, ``udp_multicast``) leave them to the
-    port's receiver: python-can's software filter ends a non-blocking ``recv`` at the first frame it drops,
-    which would cut every drain short. None: every frame.
+    ids costs this process nothing; ``local`` applies them as a frame is sent. The other in-process buses
+    (``virtual``, ``udp_multicast``) leave them to the port's receiver: python-can's software filter ends a
+    non-blocking ``recv`` at the first frame it drops, which would cut every drain short. None: every frame.
 
     Retries every 0.2 s, logging one line every ``cfg.retry_log_interval_s``, until the bus opens, ``stop``
     is set or ``timeout_s`` passes (then :class:`BusUnavailable`). A configuration error (e.g. a multicast

@@ -90,7 +90,7 @@ class BusPort:
         frame; in both cases no alive-counter value is used up (the next frame continues the sequence).
         """
         frame_id, data = self.sender.encode(msg, commit=False)
-        if not self._up():
+        if self.lost and not self._up():
             return  # nobody to send to: nothing is sent, no counter value used
         frame = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
         try:
@@ -127,7 +127,7 @@ class BusPort:
         (default :attr:`drain_budget_frames`), so a flood cannot hold the caller's tick; the rest wait for
         the next call (:attr:`drain_capped` counts the calls that stopped at the budget)."""
         out: list[BusMessage] = []
-        if not self._up():
+        if self.lost and not self._up():
             return out
         budget = self.drain_budget_frames if budget_frames is None else budget_frames
         for _ in range(budget):

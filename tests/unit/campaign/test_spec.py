@@ -434,15 +434,7 @@ def _with(path: str, value: Any) -> dict[str, Any]:
     return data
 
 
-class _Delete:
-    """The key is removed. Its repr is stable: the test ids are the same in every process (pytest-xdist
-    compares the workers' collections)."""
-
-    def __repr__(self) -> str:
-        return "DELETE"
-
-
-DELETE = _Delete()
+DELETE = object()
 START = "missions/0/start"
 GOAL = "missions/0/goals/0"
 

@@ -88,3 +88,23 @@ def test_a_position_fix_frame_states_the_sensor_accuracy_rounded_up() -> None:
         assert codec.decode(fid, data, 0.0).std_m == stated
     (frame,) = sensor_frames(Fix(1.0, 3.0, -4.0, 9.0))
     assert frame.std_m == 3.75  # the frame's largest step: "3.75 m or worse"
+
+
+def test_a_measurement_with_any_non_finite_field_gives_no_frame() -> None:
+    # GIVEN each measurement type WHEN any one of its fields (time or a reading) is NaN or infinite
+    # THEN the bench sends no frame for it (a real sensor drops an invalid reading); finite ones give frames
+    import dataclasses
+    import math
+
+    from hil_sim.bench_program import sensor_frames
+
+    for good in (
+        AhrsMeasurement(1.0, 0.1, 0.2, 0.3, 0.01, 0.02, 0.03),
+        DepthMeasurement(1.0, 2.0),
+        DvlMeasurement(1.0, 1.0, 0.1, 0.0),
+        PositionFix(1.0, 3.0, -4.0, 0.5),
+    ):
+        assert sensor_frames(good)
+        for f in dataclasses.fields(good):
+            for bad in (math.nan, math.inf, -math.inf):
+                assert sensor_frames(dataclasses.replace(good, **{f.name: bad})) == [], (good, f.name)
