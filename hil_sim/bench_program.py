@@ -38,7 +38,7 @@ from typing import Any, Literal
 import numpy as np
 
 from auv_common.cli import join_negative_values
-from auv_common.config import ConfigError, from_table, load_toml, require
+from auv_common.config import ConfigError, check_declared, from_table, load_toml, param, require
 from hil_sim.model.actuators import (
     ActuatorCommand,
     WatchdogState,
@@ -66,58 +66,72 @@ NUMERIC_OPTIONS = ("--start", "--current", "--seed", "--duration", "--stop-delay
 
 @dataclass(frozen=True)
 class BenchConfig:
-    """The ``[bench]`` table.
+    """The ``[bench]`` table: how the bench runs."""
 
-    time_mode: realtime | lockstep. control_rate_hz: the control period (must match the onboard's).
-    sensor_profile: basin | sea. seed: all noise. command_timeout_s: the actuator node's command watchdog
-    (0 = the vehicle's ``[actuators] command_timeout_s``).
-    echo_timeout_s: lock-step wall-clock deadline for the onboard's SYNC_ACK. duration_s: simulated seconds
-    after the start (0 = until stopped). stop_on_state: onboard states that end the run (after
-    ``stop_delay_s`` more simulated seconds). truth_log: CSV of truth + commands ("" = off). params: the
-    vehicle parameter TOML ("" = the packaged ISiMI100). host_hub: host the CAN hub for a remote bus.
-    """
-
-    time_mode: Literal["realtime", "lockstep"] = "realtime"
-    control_rate_hz: float = 20.0
-    sensor_profile: Literal["basin", "sea"] = "basin"
-    seed: int = 0
-    command_timeout_s: float = 0.0  # 0 = the vehicle's [actuators] command_timeout_s
-    echo_timeout_s: float = 10.0
-    duration_s: float = 0.0
-    stop_on_state: tuple[str, ...] = ()
-    stop_delay_s: float = 0.0
-    truth_log: str = ""
-    params: str = ""
-    host_hub: bool = True
+    time_mode: Literal["realtime", "lockstep"] = param(
+        "realtime", desc='"realtime" or "lockstep" (one onboard tick per SYNC frame)'
+    )
+    control_rate_hz: float = param(
+        20.0, unit="Hz", min=1.0, max=200.0, desc="the control period (must match the onboard [loop] rate_hz)"
+    )
+    sensor_profile: Literal["basin", "sea"] = param(
+        "basin", desc='"basin" (the paper\'s tank: mm fixes at 20 Hz) or "sea" (slow noisy fixes, DVL)'
+    )
+    seed: int = param(0, desc="the seed of all noise")
+    command_timeout_s: float = param(
+        0.0, unit="s", min=0.0, max=10.0,
+        desc="the actuator node's command watchdog (0 = the vehicle's [actuators] command_timeout_s)",
+    )  # fmt: skip
+    echo_timeout_s: float = param(
+        10.0,
+        unit="s",
+        min=0.0,
+        min_open=True,
+        desc="lock-step: wall-clock deadline for the onboard's SYNC_ACK",
+    )
+    duration_s: float = param(
+        0.0, unit="s", min=0.0, desc="simulated seconds after the start (0 = until stopped)"
+    )
+    stop_on_state: tuple[str, ...] = param(
+        (), desc="onboard mission states (MissionStateCode names) that end the run, after stop_delay_s"
+    )
+    stop_delay_s: float = param(
+        0.0, unit="s", min=0.0, desc="simulated seconds run on after a stop_on_state state"
+    )
+    truth_log: str = param("", desc='CSV of truth + commands ("" = off)')
+    params: str = param("", desc='the vehicle parameter TOML ("" = the packaged ISiMI100)')
+    host_hub: bool = param(True, desc="host the CAN hub for a remote bus")
 
     def __post_init__(self) -> None:
-        require(1.0 <= self.control_rate_hz <= 200.0, "control_rate_hz must be within 1..200")
-        require(0.0 <= self.command_timeout_s <= 10.0, "command_timeout_s must be within 0..10 s")
-        require(self.echo_timeout_s > 0.0, "echo_timeout_s must be > 0")
-        require(self.duration_s >= 0.0 and self.stop_delay_s >= 0.0, "durations must be >= 0")
+        check_declared(self)
         for s in self.stop_on_state:
             require(s in m.MissionStateCode.__members__, f"stop_on_state: unknown state {s!r}")
 
 
 @dataclass(frozen=True)
 class InitialConfig:
-    """The ``[initial]`` table: where the vehicle starts, at rest (NED m, degrees)."""
+    """The ``[initial]`` table: where the vehicle starts, at rest (NED)."""
 
-    x_m: float = 0.0
-    y_m: float = 0.0
-    depth_m: float = 1.0
-    yaw_deg: float = 0.0
+    x_m: float = param(0.0, unit="m", desc="north")
+    y_m: float = param(0.0, unit="m", desc="east")
+    depth_m: float = param(1.0, unit="m", desc="depth")
+    yaw_deg: float = param(0.0, unit="deg", desc="heading, from north")
+
+    def __post_init__(self) -> None:
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class WaterCurrentConfig:
-    """The ``[current]`` table: the direction the water flows towards, degrees from north (NED)."""
+    """The ``[current]`` table: a constant current."""
 
-    speed_mps: float = 0.0
-    direction_deg: float = 0.0
+    speed_mps: float = param(0.0, unit="m/s", min=0.0, max=3.0, desc="current speed")
+    direction_deg: float = param(
+        0.0, unit="deg", desc="the direction the water flows towards, from north (NED)"
+    )
 
     def __post_init__(self) -> None:
-        require(0.0 <= self.speed_mps <= 3.0, "current speed_mps must be within 0..3")
+        check_declared(self)
 
 
 @dataclass(frozen=True)

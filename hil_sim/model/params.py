@@ -23,249 +23,313 @@ from typing import Any
 
 import numpy as np
 
-from auv_common.config import ConfigError, from_table, load_toml, require
+from auv_common.config import ConfigError, check_declared, from_table, load_toml, param, require
 from hil_sim.model.hull import HullProperties, MyringHull, hull_properties
 
 DEFAULT_PARAMS_PATH = Path(__file__).resolve().parent.parent / "params" / "isimi100.toml"
 
 
 # ----------------------------------------------------------------------------------------------------
-# TOML sections
+# TOML sections: each key declared once (auv_common.config.param: unit, range, description beside its
+# default; no default: required); ``check_declared`` in ``__post_init__`` enforces the ranges, the rules
+# across keys follow it. ``python -m hil_sim.params_doc`` renders them as docs/bench-parameters.md.
+
+# Power k of L in the scale rho/2 L^k for each coefficient (forces; moments one more), Prestero / SNAME.
+SCALE_EXPONENT: dict[str, int] = {
+    "Xudot": 3, "Yvdot": 3, "Yrdot": 4, "Zwdot": 3, "Zqdot": 4, "Kpdot": 5, "Mwdot": 4, "Mqdot": 5,
+    "Nvdot": 4, "Nrdot": 5,
+    "Xuu": 2, "Yvv": 2, "Yrr": 4, "Zww": 2, "Zqq": 4, "Kpp": 5, "Mww": 3, "Nvv": 3,
+    "Yuv": 2, "Zuw": 2, "Muw": 3, "Nuv": 3,
+    "Xwq": 3, "Xqq": 4, "Xvr": 3, "Xrr": 4, "Yur": 3, "Ywp": 3, "Ypq": 4, "Zuq": 3, "Zvp": 3, "Zrp": 4,
+    "Muq": 4, "Mvp": 4, "Mrp": 5, "Nur": 4, "Nwp": 4, "Npq": 5,
+}  # fmt: skip
+
+
+def _remus_unit(name: str) -> str:
+    """Prestero's dimensional unit of a REMUS coefficient: kg m^(k-3) (k its ``SCALE_EXPONENT``) per rad for
+    each angular rate (p, q, r) it multiplies."""
+    k = SCALE_EXPONENT[name]
+    rads = sum(name[1:].removesuffix("dot").count(c) for c in "pqr")
+    top = {0: "kg", 1: "kg.m", 2: "kg.m^2"}.get(k - 3, "kg")
+    below = (["m"] if k == 2 else []) + ([f"rad^{rads}" if rads > 1 else "rad"] if rads else [])
+    if not below:
+        return top
+    return f"{top}/{below[0]}" if len(below) == 1 else f"{top}/({'.'.join(below)})"
+
+
+def _remus_desc(name: str) -> str:
+    force, rest = name[0], name[1:]
+    if rest.endswith("dot"):
+        return f"d{force}/d(d{rest[0]}/dt): added mass"
+    return f"d{force}/d({' '.join(rest)})"
+
+
+def _remus(name: str) -> Any:
+    """A REMUS 100 coefficient (required; dimensional SI, Prestero's symbol)."""
+    return param(unit=_remus_unit(name), desc=_remus_desc(name))
 
 
 @dataclass(frozen=True)
 class MetaConfig:
     """Free-text description and source of the parameter set."""
 
-    vehicle: str = ""
-    source: str = ""
+    vehicle: str = param("", desc="the vehicle the set describes")
+    source: str = param("", desc="where the numbers come from")
 
 
 @dataclass(frozen=True)
 class EnvironmentConfig:
-    """Water density (kg/m^3) and gravity (m/s^2)."""
+    """The water and gravity."""
 
-    rho_kgpm3: float = 1030.0
-    g_mps2: float = 9.81
+    rho_kgpm3: float = param(
+        1030.0, unit="kg/m^3", min=900.0, max=1100.0, min_open=True, max_open=True, desc="water density"
+    )
+    g_mps2: float = param(9.81, unit="m/s^2", min=9.7, max=9.9, min_open=True, max_open=True, desc="gravity")
 
     def __post_init__(self) -> None:
-        require(900.0 < self.rho_kgpm3 < 1100.0, f"rho_kgpm3 out of range: {self.rho_kgpm3}")
-        require(9.7 < self.g_mps2 < 9.9, f"g_mps2 out of range: {self.g_mps2}")
+        check_declared(self)
+
+
+def _length(what: str) -> Any:
+    return param(unit="m", min=0.0, min_open=True, desc=what)
 
 
 @dataclass(frozen=True)
 class HullConfig:
-    """Paper Table 1 (metres) plus the Myring exponent and tail half-angle we chose (see the TOML)."""
+    """Paper Table 1 (a_m + b_m + c_m = lf_m, lf_m + c_offset_m = l_m) plus the Myring exponent and tail
+    half-angle we chose (see the TOML)."""
 
-    a_m: float
-    b_m: float
-    c_m: float
-    d_m: float
-    a_offset_m: float
-    c_offset_m: float
-    lf_m: float
-    l_m: float
-    myring_n: float = 2.0
-    tail_half_angle_deg: float = 25.0
+    a_m: float = _length("nose length (Table 1 a)")
+    b_m: float = _length("mid-body length (Table 1 b)")
+    c_m: float = _length("tail length (Table 1 c)")
+    d_m: float = _length("diameter (Table 1 d)")
+    a_offset_m: float = param(unit="m", desc="nose offset: the blunted tip, left out of the volume")
+    c_offset_m: float = param(unit="m", desc="tail offset: the propeller hub behind the tail point")
+    lf_m: float = _length("Myring body length, nose tip to tail point (a + b + c)")
+    l_m: float = _length("overall length (lf + c_offset): the scaling length of the coefficients")
+    myring_n: float = param(2.0, min=1.0, max=4.0, desc="Myring nose exponent")
+    tail_half_angle_deg: float = param(25.0, unit="deg", min=5.0, max=40.0, desc="Myring tail half-angle")
 
     def __post_init__(self) -> None:
-        for name in ("a_m", "b_m", "c_m", "d_m", "lf_m", "l_m"):
-            require(getattr(self, name) > 0.0, f"{name} must be > 0")
+        check_declared(self)
         require(
             abs(self.a_m + self.b_m + self.c_m - self.lf_m) < 1e-6,
             "a_m + b_m + c_m must equal lf_m (Table 1)",
         )
         require(abs(self.lf_m + self.c_offset_m - self.l_m) < 1e-6, "lf_m + c_offset_m must equal l_m")
-        require(1.0 <= self.myring_n <= 4.0, f"myring_n out of range [1, 4]: {self.myring_n}")
-        require(5.0 <= self.tail_half_angle_deg <= 40.0, "tail_half_angle_deg out of range [5, 40]")
 
 
 @dataclass(frozen=True)
 class MassConfig:
-    """Buoyancy margin (B - W)/B, CG below CB (m), roll-inertia correction factor."""
+    """Buoyancy, centre of gravity and roll inertia."""
 
-    buoyancy_margin_fraction: float = 0.01
-    zg_m: float = 0.0205
-    roll_inertia_factor: float = 1.0
+    buoyancy_margin_fraction: float = param(
+        0.01, min=-0.05, max=0.1, desc="(B - W)/B: > 0 surfaces when power is lost"
+    )
+    zg_m: float = param(0.0205, unit="m", min=0.0, max=0.1, max_open=True, desc="CG below CB")
+    roll_inertia_factor: float = param(
+        1.0, min=0.5, max=3.0, desc="Ixx over the homogeneous solid's (mass sits at the shell)"
+    )
 
     def __post_init__(self) -> None:
-        require(
-            -0.05 <= self.buoyancy_margin_fraction <= 0.1,
-            f"buoyancy_margin_fraction out of range: {self.buoyancy_margin_fraction}",
-        )
-        require(0.0 <= self.zg_m < 0.1, f"zg_m out of range [0, 0.1): {self.zg_m}")
-        require(0.5 <= self.roll_inertia_factor <= 3.0, "roll_inertia_factor out of range [0.5, 3]")
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class RemusConfig:
-    """Prestero's REMUS 100 coefficients (dimensional SI, origin at the CB, L_m = 1.33 m), yaml names."""
+    """Prestero's REMUS 100 coefficients (dimensional SI, origin at the CB, L_m = 1.33 m), yaml names.
 
-    L_m: float
-    Sfin_m2: float
-    x_fin_m: float
-    Xudot: float
-    Yvdot: float
-    Yrdot: float
-    Zwdot: float
-    Zqdot: float
-    Kpdot: float
-    Mwdot: float
-    Mqdot: float
-    Nvdot: float
-    Nrdot: float
-    Xuu: float
-    Yvv: float
-    Yrr: float
-    Zww: float
-    Zqq: float
-    Kpp: float
-    Mww: float
-    Nvv: float
-    Yuv: float
-    Zuw: float
-    Muw: float
-    Nuv: float
-    Xwq: float
-    Xqq: float
-    Xvr: float
-    Xrr: float
-    Yur: float
-    Ywp: float
-    Ypq: float
-    Zuq: float
-    Zvp: float
-    Zrp: float
-    Muq: float
-    Mvp: float
-    Mrp: float
-    Nur: float
-    Nwp: float
-    Npq: float
-    Yuudr: float
+    Symbols (Prestero/SNAME): X, Y, Z forces and K, M, N moments; u, v, w, p, q, r the body velocities and
+    rates (``dr``: the rudder angle). Coefficients with fin terms (Yuv, Yur, ...) are combined: the code
+    removes the REMUS fin part before scaling and adds the ISiMI100 one (:func:`scaled_coefficients`).
+    """
+
+    L_m: float = param(unit="m", desc="REMUS 100 length (the scale of its coefficients)")
+    Sfin_m2: float = param(unit="m^2", desc="REMUS 100 fin area")
+    x_fin_m: float = param(unit="m", desc="REMUS 100 fin post from the CB (negative aft)")
+    Xudot: float = _remus("Xudot")
+    Yvdot: float = _remus("Yvdot")
+    Yrdot: float = _remus("Yrdot")
+    Zwdot: float = _remus("Zwdot")
+    Zqdot: float = _remus("Zqdot")
+    Kpdot: float = _remus("Kpdot")
+    Mwdot: float = _remus("Mwdot")
+    Mqdot: float = _remus("Mqdot")
+    Nvdot: float = _remus("Nvdot")
+    Nrdot: float = _remus("Nrdot")
+    Xuu: float = _remus("Xuu")
+    Yvv: float = _remus("Yvv")
+    Yrr: float = _remus("Yrr")
+    Zww: float = _remus("Zww")
+    Zqq: float = _remus("Zqq")
+    Kpp: float = _remus("Kpp")
+    Mww: float = _remus("Mww")
+    Nvv: float = _remus("Nvv")
+    Yuv: float = _remus("Yuv")
+    Zuw: float = _remus("Zuw")
+    Muw: float = _remus("Muw")
+    Nuv: float = _remus("Nuv")
+    Xwq: float = _remus("Xwq")
+    Xqq: float = _remus("Xqq")
+    Xvr: float = _remus("Xvr")
+    Xrr: float = _remus("Xrr")
+    Yur: float = _remus("Yur")
+    Ywp: float = _remus("Ywp")
+    Ypq: float = _remus("Ypq")
+    Zuq: float = _remus("Zuq")
+    Zvp: float = _remus("Zvp")
+    Zrp: float = _remus("Zrp")
+    Muq: float = _remus("Muq")
+    Mvp: float = _remus("Mvp")
+    Mrp: float = _remus("Mrp")
+    Nur: float = _remus("Nur")
+    Nwp: float = _remus("Nwp")
+    Npq: float = _remus("Npq")
+    Yuudr: float = param(unit="kg/(m.rad)", desc="dY/d(u u dr): the fin pair's lift")
+
+    def __post_init__(self) -> None:
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class FinConfig:
-    """One fin's planform area (m^2), effective lift slope per fin pair (1/rad), position, aspect ratio."""
+    """The ISiMI100 fins (one fin; the lift slope per fin pair)."""
 
-    area_m2: float
-    lift_slope_per_rad: float = 1.407
-    x_from_tail_point_m: float = 0.12
-    aspect_ratio: float = 1.1
+    area_m2: float = param(
+        unit="m^2", min=0.0, max=0.1, min_open=True, max_open=True, desc="one fin's planform area"
+    )
+    lift_slope_per_rad: float = param(
+        1.407, unit="1/rad", min=0.1, max=7.0, min_open=True, max_open=True,
+        desc="effective lift slope per fin pair",
+    )  # fmt: skip
+    x_from_tail_point_m: float = param(
+        0.12, unit="m", min=0.0, max=0.5, max_open=True, desc="fin post ahead of the tail point"
+    )
+    aspect_ratio: float = param(1.1, min=0.2, max=5.0, min_open=True, max_open=True, desc="span over chord")
 
     def __post_init__(self) -> None:
-        require(0.0 < self.area_m2 < 0.1, f"area_m2 out of range (0, 0.1): {self.area_m2}")
-        require(0.1 < self.lift_slope_per_rad < 7.0, "lift_slope_per_rad out of range (0.1, 7)")
-        require(0.0 <= self.x_from_tail_point_m < 0.5, "x_from_tail_point_m out of range [0, 0.5)")
-        require(0.2 < self.aspect_ratio < 5.0, "aspect_ratio out of range (0.2, 5)")
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class CrossflowConfig:
-    """Cross-flow drag coefficients of Prestero's Mqq/Nrr formula: hull (cylinder) and fin (flat plate)."""
+    """Cross-flow drag coefficients of Prestero's Mqq/Nrr formula."""
 
-    hull_cd: float = 1.1
-    fin_cd: float = 0.56
+    hull_cd: float = param(1.1, min=0.0, max=2.0, desc="hull cross-flow drag coefficient (cylinder)")
+    fin_cd: float = param(0.56, min=0.0, max=2.0, desc="fin cross-flow drag coefficient (flat plate)")
 
     def __post_init__(self) -> None:
-        require(0.0 <= self.hull_cd <= 2.0, f"hull_cd out of range [0, 2]: {self.hull_cd}")
-        require(0.0 <= self.fin_cd <= 2.0, f"fin_cd out of range [0, 2]: {self.fin_cd}")
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class PropulsionConfig:
-    """Paper eq. 7 thrust primes (a_x..d_x, n in rev/s), torque prime k_q, nominal propeller speed (rev/s)."""
+    """Paper eq. 7: X_prop = rho/2 l^2 (a_x + b_x n + c_x n|n| + d_x n^3), n in rev/s; the propeller's roll
+    torque K_prop = rho/2 l^3 k_q n|n|."""
 
-    a_x: float = 0.0
-    b_x: float = 0.0
-    c_x: float = 6.8029e-06
-    d_x: float = 0.0
-    k_q: float = -7.3053e-07
-    nominal_rps: float = 25.0
+    a_x: float = param(0.0, unit="m^2/s^2", desc="thrust prime, constant term")
+    b_x: float = param(0.0, unit="m^2/(s.rev)", desc="thrust prime on n")
+    c_x: float = param(6.8029e-06, unit="m^2/rev^2", desc="thrust prime on n|n|")
+    d_x: float = param(0.0, unit="m^2.s/rev^3", desc="thrust prime on n^3")
+    k_q: float = param(-7.3053e-07, unit="m^2/rev^2", desc="propeller torque prime on n|n|")
+    nominal_rps: float = param(
+        25.0, unit="rps", min=0.0, max=100.0, min_open=True, desc="nominal propeller speed"
+    )
 
     def __post_init__(self) -> None:
-        require(0.0 < self.nominal_rps <= 100.0, f"nominal_rps out of range (0, 100]: {self.nominal_rps}")
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class ActuatorConfig:
-    """Fin angle/rate limits (deg, deg/s), propeller range (rev/s) and lag (s), and the actuator node's
-    command timeout (s): no valid command for that long latches its failsafe. In seconds, not control
-    periods, so one value means the same at every control rate (the bench counts it in whole periods, rounded
-    up)."""
+    """The fins, the propeller and the actuator node's command watchdog. The command timeout is in seconds,
+    not control periods, so one value means the same at every control rate (the bench counts it in whole
+    periods, rounded up)."""
 
-    fin_limit_deg: float = 20.0
-    fin_rate_degps: float = 40.0
-    propeller_min_rps: float = -10.0
-    propeller_max_rps: float = 30.0
-    propeller_time_constant_s: float = 0.4
-    command_timeout_s: float = 0.5
+    fin_limit_deg: float = param(20.0, unit="deg", min=0.0, max=45.0, min_open=True, desc="fin angle limit")
+    fin_rate_degps: float = param(
+        40.0, unit="deg/s", min=0.0, max=1000.0, min_open=True, desc="fin rate limit"
+    )
+    propeller_min_rps: float = param(-10.0, unit="rps", max=0.0, desc="propeller speed, lowest (reverse)")
+    propeller_max_rps: float = param(
+        30.0, unit="rps", min=0.0, min_open=True, desc="propeller speed, highest"
+    )
+    propeller_time_constant_s: float = param(
+        0.4, unit="s", min=0.0, min_open=True, desc="propeller first-order lag"
+    )
+    command_timeout_s: float = param(
+        0.5, unit="s", min=0.0, max=10.0, min_open=True,
+        desc="no valid command for this long latches the actuator node's failsafe",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
-        require(0.0 < self.fin_limit_deg <= 45.0, f"fin_limit_deg out of range (0, 45]: {self.fin_limit_deg}")
-        require(0.0 < self.fin_rate_degps <= 1000.0, "fin_rate_degps out of range (0, 1000]")
-        require(self.propeller_min_rps <= 0.0 < self.propeller_max_rps, "need propeller_min_rps <= 0 < max")
-        require(self.propeller_time_constant_s > 0.0, "propeller_time_constant_s must be > 0")
-        require(
-            0.0 < self.command_timeout_s <= 10.0,
-            f"command_timeout_s out of range (0, 10]: {self.command_timeout_s}",
-        )
+        check_declared(self)
 
 
 @dataclass(frozen=True)
 class IntegrationConfig:
-    """RK4 step (s) and the default control period (s) it divides. ``step_s`` is also the largest step the
-    bench uses at another control rate (:func:`hil_sim.model.sim.dividing_step_s`)."""
+    """The RK4 step and the default control period it divides."""
 
-    step_s: float = 0.05
-    control_period_s: float = 0.05
+    step_s: float = param(
+        0.05, unit="s", min=0.0, max=0.2, min_open=True,
+        desc="RK4 step; also the largest step the bench uses at another control rate",
+    )  # fmt: skip
+    control_period_s: float = param(
+        0.05, unit="s", min=0.0, max=1.0, min_open=True, desc="default control period (step_s divides it)"
+    )
 
     def __post_init__(self) -> None:
-        require(0.0 < self.step_s <= 0.2, f"step_s out of range (0, 0.2]: {self.step_s}")
-        require(0.0 < self.control_period_s <= 1.0, "control_period_s out of range (0, 1]")
-        ratio = self.control_period_s / self.step_s
-        require(abs(ratio - round(ratio)) < 1e-9, "step_s must divide control_period_s")
+        check_declared(self)
+        ratio = self.control_period_s / self.step_s  # inf for a subnormal step: refused, not an OverflowError
+        require(
+            math.isfinite(ratio) and abs(ratio - round(ratio)) < 1e-9, "step_s must divide control_period_s"
+        )
 
 
 @dataclass(frozen=True)
 class CurrentConfig:
-    """Ocean current in NED (m/s) and its optional Gauss-Markov variation (std m/s, time constant s)."""
+    """Ocean current in NED (at most 5 m/s) and its optional Gauss-Markov variation."""
 
-    north_mps: float = 0.0
-    east_mps: float = 0.0
-    down_mps: float = 0.0
-    variation_std_mps: float = 0.0
-    variation_time_constant_s: float = 300.0
+    north_mps: float = param(0.0, unit="m/s", desc="current towards north")
+    east_mps: float = param(0.0, unit="m/s", desc="current towards east")
+    down_mps: float = param(0.0, unit="m/s", desc="current downwards")
+    variation_std_mps: float = param(
+        0.0, unit="m/s", min=0.0, desc="Gauss-Markov variation, standard deviation (0 = constant)"
+    )
+    variation_time_constant_s: float = param(
+        300.0, unit="s", min=0.0, min_open=True, desc="Gauss-Markov variation, time constant"
+    )
 
     def __post_init__(self) -> None:
+        check_declared(self)
         require(math.hypot(self.north_mps, self.east_mps, self.down_mps) <= 5.0, "current above 5 m/s")
-        require(self.variation_std_mps >= 0.0, "variation_std_mps must be >= 0")
-        require(self.variation_time_constant_s > 0.0, "variation_time_constant_s must be > 0")
+
+
+def _sensor_rate(default_hz: float, what: str) -> Any:
+    return param(default_hz, unit="Hz", min=0.0, max=1000.0, min_open=True, desc=f"{what} rate")
+
+
+def _noise(default: float, unit: str, what: str) -> Any:
+    return param(default, unit=unit, min=0.0, desc=f"{what}, 1-sigma white noise")
 
 
 @dataclass(frozen=True)
 class SensorProfileConfig:
-    """Rates (Hz) and 1-sigma white noise of the four sensors; degrees only here."""
+    """Rates and 1-sigma white noise of the four sensors; degrees only here."""
 
-    ahrs_rate_hz: float = 20.0
-    ahrs_attitude_std_deg: float = 0.1
-    ahrs_yaw_std_deg: float = 0.5
-    ahrs_rate_std_degps: float = 0.1
-    depth_rate_hz: float = 20.0
-    depth_std_m: float = 0.005
-    dvl_rate_hz: float = 10.0
-    dvl_std_mps: float = 0.005
-    fix_rate_hz: float = 20.0
-    fix_std_m: float = 0.003
+    ahrs_rate_hz: float = _sensor_rate(20.0, "AHRS")
+    ahrs_attitude_std_deg: float = _noise(0.1, "deg", "AHRS roll and pitch")
+    ahrs_yaw_std_deg: float = _noise(0.5, "deg", "AHRS yaw")
+    ahrs_rate_std_degps: float = _noise(0.1, "deg/s", "AHRS angular rates")
+    depth_rate_hz: float = _sensor_rate(20.0, "depth")
+    depth_std_m: float = _noise(0.005, "m", "depth")
+    dvl_rate_hz: float = _sensor_rate(10.0, "DVL")
+    dvl_std_mps: float = _noise(0.005, "m/s", "DVL velocity")
+    fix_rate_hz: float = _sensor_rate(20.0, "position fix")
+    fix_std_m: float = _noise(0.003, "m", "position fix")
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if f.name.endswith("_hz"):
-                require(0.0 < value <= 1000.0, f"{f.name} out of range (0, 1000]: {value}")
-            else:
-                require(value >= 0.0, f"{f.name} must be >= 0: {value}")
+        check_declared(self)
 
 
 @dataclass(frozen=True)
@@ -278,16 +342,17 @@ class SensorsConfig:
 
 @dataclass(frozen=True)
 class TurningConfig:
-    """Recorded steady turning diameters (m) at ``propeller_rps`` for each rudder angle (deg): port (+rudder),
-    starboard, and the wider of the two (``diameter_m``, for the planner)."""
+    """Recorded steady turning diameters at ``propeller_rps`` for each rudder angle: port (+rudder),
+    starboard, and the wider of the two (``diameter_m``, for the planner). The lists have one length."""
 
-    propeller_rps: float = 25.0
-    rudder_deg: tuple[float, ...] = ()
-    diameter_port_m: tuple[float, ...] = ()
-    diameter_starboard_m: tuple[float, ...] = ()
-    diameter_m: tuple[float, ...] = ()
+    propeller_rps: float = param(25.0, unit="rps", desc="propeller speed of the recorded turns")
+    rudder_deg: tuple[float, ...] = param((), unit="deg", desc="rudder angles of the recorded turns")
+    diameter_port_m: tuple[float, ...] = param((), unit="m", desc="turning diameter to port (+rudder)")
+    diameter_starboard_m: tuple[float, ...] = param((), unit="m", desc="turning diameter to starboard")
+    diameter_m: tuple[float, ...] = param((), unit="m", desc="the wider of the two (the planner's)")
 
     def __post_init__(self) -> None:
+        check_declared(self)
         n = len(self.rudder_deg)
         require(
             len(self.diameter_m) == len(self.diameter_port_m) == len(self.diameter_starboard_m) == n,
@@ -316,16 +381,6 @@ class VehicleConfig:
 
 # ----------------------------------------------------------------------------------------------------
 # Derived model constants
-
-# Power k of L in the scale rho/2 L^k for each coefficient (forces; moments one more), Prestero / SNAME.
-SCALE_EXPONENT: dict[str, int] = {
-    "Xudot": 3, "Yvdot": 3, "Yrdot": 4, "Zwdot": 3, "Zqdot": 4, "Kpdot": 5, "Mwdot": 4, "Mqdot": 5,
-    "Nvdot": 4, "Nrdot": 5,
-    "Xuu": 2, "Yvv": 2, "Yrr": 4, "Zww": 2, "Zqq": 4, "Kpp": 5, "Mww": 3, "Nvv": 3,
-    "Yuv": 2, "Zuw": 2, "Muw": 3, "Nuv": 3,
-    "Xwq": 3, "Xqq": 4, "Xvr": 3, "Xrr": 4, "Yur": 3, "Ywp": 3, "Ypq": 4, "Zuq": 3, "Zvp": 3, "Zrp": 4,
-    "Muq": 4, "Mvp": 4, "Mrp": 5, "Nur": 4, "Nwp": 4, "Npq": 5,
-}  # fmt: skip
 
 
 def fin_parts(lift_n: float, x_fin_m: float) -> dict[str, float]:

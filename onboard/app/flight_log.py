@@ -52,7 +52,7 @@ from typing import Any, BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
-from auv_common.config import require
+from auv_common.config import check_declared, param
 from onboard.adapters.log_files import (
     log_files,
     log_name,
@@ -85,29 +85,24 @@ TELEMETRY, PATH, MISSION, EVENTS = "/telemetry", "/path", "/mission", "/events"
 class LogConfig:
     """The ``[log]`` table: the flight log of ``auv-onboard run`` (:mod:`onboard.app.flight_log`).
 
-    enabled: write one file per run. max_total_mb: the bytes all logs may take together, the one being
-    written included (0.01..1e6 MB; 1 MB = 1e6 bytes). keep_files: the most log files kept (1..1000). Beyond
-    either, logs are removed (:func:`onboard.adapters.log_files.to_remove`: boot-only ones first, then the
-    oldest flights, never the one being written). flush_period_s: the writer ends a chunk, writes and fsyncs
-    it this often (0.1..10 s): what a crash may lose. dir: the directory ("" = ``<state_dir>/logs``).
+    Beyond ``max_total_mb`` or ``keep_files``, logs are removed (:func:`onboard.adapters.log_files.to_remove`:
+    boot-only ones first, then the oldest flights, never the one being written).
     """
 
-    enabled: bool = True
-    max_total_mb: float = 500.0
-    keep_files: int = 200
-    flush_period_s: float = 1.0
-    dir: str = ""
+    enabled: bool = param(True, desc="write one file per run")
+    max_total_mb: float = param(
+        500.0, unit="MB", min=0.01, max=1e6,
+        desc="the bytes all logs may take together, the one being written included (1 MB = 1e6 bytes)",
+    )  # fmt: skip
+    keep_files: int = param(200, min=1, max=1000, desc="the most log files kept")
+    flush_period_s: float = param(
+        1.0, unit="s", min=0.1, max=10.0,
+        desc="the writer ends a chunk, writes and fsyncs it this often: what a crash may lose",
+    )  # fmt: skip
+    dir: str = param("", desc='the directory ("" = logs in the state directory)')
 
     def __post_init__(self) -> None:
-        require(
-            0.01 <= self.max_total_mb <= 1e6,
-            f"max_total_mb must be within 0.01..1e6 MB, got {self.max_total_mb}",
-        )
-        require(1 <= self.keep_files <= 1000, f"keep_files must be within 1..1000, got {self.keep_files}")
-        require(
-            0.1 <= self.flush_period_s <= 10.0,
-            f"flush_period_s must be within 0.1..10 s, got {self.flush_period_s}",
-        )
+        check_declared(self)
 
     def directory(self, state_dir: Path) -> Path:
         """Where the files go: ``dir``, or ``logs`` in the state directory."""

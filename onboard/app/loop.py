@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol, overload
 
-from auv_common.config import require
+from auv_common.config import Bound, check_declared, param
 from onboard.app.planning import PlanWorker
 from onboard.protocol.messages import (
     ActuatorMode,
@@ -46,26 +46,25 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class LoopConfig:
-    """The ``[loop]`` table.
+    """The ``[loop]`` table: the control loop's rate and clock, its heartbeat and its records."""
 
-    rate_hz: control rate (1-200 Hz). time_source: ``monotonic`` (real time) or ``lockstep`` (SYNC frames).
-    spin_s: the last part of each wait that is spun instead of slept (0 = sleep only).
-    heartbeat_period_s: ONBOARD_HEARTBEAT period (also sent at once on every mission-state change).
-    telemetry_csv: a per-tick CSV log ("" = off). history: ticks kept in memory for tests and MAVLink.
-    """
-
-    rate_hz: float = 20.0
-    time_source: Literal["monotonic", "lockstep"] = "monotonic"
-    spin_s: float = 0.0003
-    heartbeat_period_s: float = 1.0
-    telemetry_csv: str = ""
-    history: int = 2000
+    rate_hz: float = param(20.0, unit="Hz", min=1.0, max=200.0, desc="control rate")
+    time_source: Literal["monotonic", "lockstep"] = param(
+        "monotonic", desc='"monotonic" (real time) or "lockstep" (one tick per SYNC frame from the bench)'
+    )
+    spin_s: float = param(
+        0.0003, unit="s", min=0.0, max=Bound(lambda c: 0.5 / c.rate_hz, "half a period"),
+        desc="the last part of each wait that is spun instead of slept (0 = sleep only)",
+    )  # fmt: skip
+    heartbeat_period_s: float = param(
+        1.0, unit="s", min=0.0, min_open=True,
+        desc="ONBOARD_HEARTBEAT period (also sent at once on every mission-state change)",
+    )  # fmt: skip
+    telemetry_csv: str = param("", desc='a per-tick CSV log ("" = off)')
+    history: int = param(2000, min=1, desc="ticks kept in memory for tests and MAVLink")
 
     def __post_init__(self) -> None:
-        require(1.0 <= self.rate_hz <= 200.0, f"rate_hz must be within 1..200, got {self.rate_hz}")
-        require(0.0 <= self.spin_s <= 0.5 / self.rate_hz, "spin_s must be within 0..half a period")
-        require(self.heartbeat_period_s > 0.0, "heartbeat_period_s must be > 0")
-        require(self.history >= 1, "history must be >= 1")
+        check_declared(self)
 
     @property
     def period_s(self) -> float:

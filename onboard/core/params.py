@@ -34,7 +34,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from auv_common.config import Bound, ConfigError, Param, declared, declared_bounds
+from auv_common.config import (
+    MARKDOWN_HEADER,
+    Bound,
+    ConfigError,
+    Param,
+    bound_notes,
+    declared,
+    declared_bounds,
+    declared_markdown,
+    markdown_row,
+    range_cell,
+)
 from onboard.core.config import CoreConfig
 from onboard.core.control.pd import ProfileName
 
@@ -294,33 +305,21 @@ parameter table and this page read that declaration.
 - **MAVLink**: the parameter a ground station reads and sets (PARAM_SET, float32); a PARAM_SET outside the
   range is refused with the reason in a STATUSTEXT and the value in force. The gains are those of the active
   profile (`control.profile`).
-- **Range**: closed; for a MAVLink parameter, the range the vehicle serves with the defaults below. Notes:
-  *operator range*, a ground station may set no further (a configured value beyond it widens it); *DBC*, the
-  command frame's signal range narrows it; a rule on other values of the table is named.
+- **Range**: closed (`[a, b]`, `>=`) unless written open (`(a, b)`, `>`); for a MAVLink parameter, the range
+  the vehicle serves with the defaults below. Notes: *operator range*, a ground station may set no further (a
+  configured value beyond it widens it); *DBC*, the command frame's signal range narrows it; a rule on other
+  values of the table is named. `-`: not a number (a name, a flag, a path): its type and its rules are
+  checked at start-up.
 - **Default**: the dataclass's default (the packaged `onboard.toml` may set another).
 """
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
-
-
-def _range_cell(lo: float, hi: float, notes: list[str]) -> str:
-    if math.isinf(hi) and math.isinf(lo):
-        text = "finite"
-    elif math.isinf(hi):
-        text = f">= {lo:g}"
-    elif math.isinf(lo):
-        text = f"<= {hi:g}"
-    else:
-        text = f"[{lo:g}, {hi:g}]"
-    return f"{text} ({'; '.join(notes)})" if notes else text
-
-
 def _notes(meta: Param, b: _Bounds | None) -> list[str]:
     """Where each end of a range comes from, where it is not a plain number of the declaration."""
+    if b is None:
+        return bound_notes(meta)
     ends = []
-    for end, bound, why in (("min", meta.min, b and b.lo_why), ("max", meta.max, b and b.hi_why)):
+    for end, bound, why in (("min", meta.min, b.lo_why), ("max", meta.max, b.hi_why)):
         if isinstance(bound, Bound):
             ends.append((end, bound.why))
         elif why and why != "the configuration's rules":
@@ -330,7 +329,7 @@ def _notes(meta: Param, b: _Bounds | None) -> list[str]:
     return [f"{end}: {why}" for end, why in ends]
 
 
-_HEADER = ["| MAVLink | Config key | Unit | Range | Default | Description |", "|---|---|---|---|---|---|"]
+_HEADER = [markdown_row(("MAVLink", *MARKDOWN_HEADER)), "|---|---|---|---|---|---|"]
 
 
 def _row(key: str, meta: Param, section: str, lo: float, hi: float, default: str, b: _Bounds | None) -> str:
@@ -338,11 +337,11 @@ def _row(key: str, meta: Param, section: str, lo: float, hi: float, default: str
         f"`{meta.mavlink}`" if meta.mavlink else "-",
         f"`{section.replace('{profile}', '<profile>')}.{key}`",
         meta.unit or "-",
-        _range_cell(lo, hi, _notes(meta, b)),
+        range_cell(meta, lo, hi, _notes(meta, b)),
         default,
         meta.desc,
     )
-    return "| " + " | ".join(_cell(c) for c in row) + " |"
+    return markdown_row(row)
 
 
 def parameters_markdown(bus_limits: BusLimits, more: Sequence[tuple[str, Any]] = ()) -> str:
@@ -378,11 +377,7 @@ def parameters_markdown(bus_limits: BusLimits, more: Sequence[tuple[str, Any]] =
             out.append(_row(key, meta, section, lo, hi, default, b))
         out.append("")
     for path, table in more:
-        out += [f"## `[{path}]`", "", *_HEADER]
-        for key, meta in declared(type(table)):
-            lo, hi = declared_bounds(table, key)
-            out.append(_row(key, meta, path, lo, hi, f"{getattr(table, key):g}", None))
-        out.append("")
+        out += declared_markdown(path, table, mavlink=True)
     return "\n".join(out)
 
 

@@ -21,6 +21,7 @@ import contextlib
 import ipaddress
 import json
 import logging
+import math
 import re
 import socket
 import subprocess
@@ -35,7 +36,7 @@ from urllib.parse import urlparse
 import can
 from can.typechecking import CanFilter
 
-from auv_common.config import ConfigError, require
+from auv_common.config import Bound, ConfigError, check_declared, param, require
 
 log = logging.getLogger(__name__)
 
@@ -46,36 +47,60 @@ DEFAULT_REMOTE_CHANNEL = f"ws://127.0.0.1:{DEFAULT_HUB_PORT}/"
 DEFAULT_HUB_CHANNEL = "isimi100-bench"
 LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 _SOCKETCAN_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,14}$")
+_HOP_LIMIT_WHY = "udp_multicast needs hop_limit = 0: otherwise frames leave the machine"
+
+
+def _udp_multicast_only(value: float, why: str, *, upper: bool) -> Bound:
+    """A bound that holds with ``interface = "udp_multicast"`` only (the key means nothing elsewhere)."""
+    unbounded = math.inf if upper else -math.inf
+    return Bound(lambda c: value if c.interface == "udp_multicast" else unbounded, why)
 
 
 @dataclass(frozen=True)
 class BusConfig:
-    """The ``[bus]`` table of a program's TOML configuration.
+    """The ``[bus]`` table of a program's TOML configuration, opened by :func:`open_bus`."""
 
-    interface: remote | virtual | local | socketcan | udp_multicast.
-    channel: remote: hub URL ``ws://host:port/``; virtual, local: a name; socketcan: ``can0``/``vcan0``;
-        udp_multicast: the multicast group address.
-    hub_channel: the in-hub virtual channel (used by the program that hosts the hub).
-    udp_port, hop_limit: udp_multicast only; hop_limit must be 0.
-    record: path of a ``.blf``/``.asc``/``.log`` (candump -l, which cantools reads) frame log written with
-        python-can's loggers ("" = off).
-    retry_log_interval_s: while waiting for a bus that is not there yet, one log line this often.
-    reconnect_max_s: a bus lost while running (hub gone, interface down) is reopened after 0.2 s, the wait
-        doubling after each failed attempt up to this (:class:`onboard.protocol.port.BusPort`).
-    """
-
-    interface: Literal["remote", "virtual", "local", "socketcan", "udp_multicast"] = "remote"
-    channel: str = DEFAULT_REMOTE_CHANNEL
-    hub_channel: str = DEFAULT_HUB_CHANNEL
-    udp_port: int = 43113
-    hop_limit: int = 0
-    record: str = ""
-    retry_log_interval_s: float = 3.0
-    reconnect_max_s: float = 5.0
+    interface: Literal["remote", "virtual", "local", "socketcan", "udp_multicast"] = param(
+        "remote",
+        desc="remote (a python-can-remote hub on 127.0.0.1), virtual or local (in one process), socketcan "
+        "or udp_multicast (hop_limit 0, routed via lo)",
+    )
+    channel: str = param(
+        DEFAULT_REMOTE_CHANNEL,
+        desc="remote: the hub URL ws://host:port/; virtual, local: a name; socketcan: can0 or vcan0; "
+        "udp_multicast: the multicast group address",
+    )
+    hub_channel: str = param(
+        DEFAULT_HUB_CHANNEL,
+        desc="the in-hub virtual channel (used by the program that hosts the hub; not empty)",
+    )
+    udp_port: int = param(
+        43113,
+        min=_udp_multicast_only(1, "1 with udp_multicast", upper=False),
+        max=_udp_multicast_only(65535, "65535 with udp_multicast", upper=True),
+        desc="udp_multicast: the UDP port of the group",
+    )
+    hop_limit: int = param(
+        0,
+        min=_udp_multicast_only(0, _HOP_LIMIT_WHY, upper=False),
+        max=_udp_multicast_only(0, _HOP_LIMIT_WHY, upper=True),
+        desc="udp_multicast: the multicast TTL",
+    )
+    record: str = param(
+        "", desc='a .blf, .asc or .log (candump -l, which cantools reads) frame log of every frame ("" = off)'
+    )
+    retry_log_interval_s: float = param(
+        3.0, unit="s", min=0.0, min_open=True,
+        desc="while waiting for a bus that is not there yet, one log line this often",
+    )  # fmt: skip
+    reconnect_max_s: float = param(
+        5.0, unit="s", min=0.2, max=60.0,
+        desc="a bus lost while running is reopened after 0.2 s, the wait doubling after each failed attempt "
+        "up to this (onboard.protocol.port.BusPort)",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
-        require(self.retry_log_interval_s > 0.0, "retry_log_interval_s must be > 0")
-        require(0.2 <= self.reconnect_max_s <= 60.0, "reconnect_max_s must be within 0.2..60 s")
+        check_declared(self)
         require(bool(self.hub_channel), "hub_channel must not be empty")
         if self.record:
             require(
@@ -97,12 +122,6 @@ class BusConfig:
             except ValueError:
                 raise ConfigError(f"udp_multicast channel {self.channel!r} is not an IP address") from None
             require(group.is_multicast, f"udp_multicast channel {self.channel} is not a multicast group")
-            require(
-                self.hop_limit == 0,
-                f"udp_multicast needs hop_limit = 0 (got {self.hop_limit}): "
-                "otherwise frames leave the machine",
-            )
-            require(1 <= self.udp_port <= 65535, f"udp_port {self.udp_port} out of range")
 
 
 def remote_endpoint(channel: str) -> tuple[str, int]:

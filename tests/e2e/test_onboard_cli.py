@@ -24,7 +24,7 @@ RUN = [sys.executable, "-m", "onboard", "run", "--no-mavlink"]
         (["--set", 'bus.interface="kvaser"'], "must be one of"),
         (["--set", 'bus.channel="127.0.0.1:54701"'], "malformed remote channel"),
         (["--set", "nosuch.key=1"], "unknown key nosuch"),
-        (["--set", "loop.rate_hz=500"], "rate_hz must be within 1..200"),
+        (["--set", "loop.rate_hz=500"], "rate_hz must be in [1, 200] Hz, got 500"),
         (["--mission", "/nonexistent/mission.yaml"], "No such file"),
         (["--config", "/nonexistent/onboard.toml"], "no such configuration file"),
     ],

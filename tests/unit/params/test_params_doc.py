@@ -13,7 +13,7 @@ import pytest
 
 from auv_common.config import ConfigError, declared, declared_bounds
 from onboard.app.config import OnboardConfig, config_from_dict
-from onboard.app.params_doc import PAGE_PATH, page
+from onboard.app.params_doc import APP_TABLES, PAGE_PATH, page
 from onboard.core.config import CoreConfig
 from onboard.core.control.pd import ControlParams
 from onboard.core.params import PARAM_NAMES, SECTIONS, BusLimits, param_table
@@ -65,7 +65,8 @@ def test_the_page_lists_every_parameter_once_with_its_key_unit_and_range() -> No
         assert cells[1] == f"`{key}`" and cells[2] == (spec.unit or "-"), cells
         assert cells[3].startswith(f"[{spec.min:g}, {spec.max:g}]") and cells[5] == spec.description, cells
     headers = [line for line in text.splitlines() if line.startswith("## ")]
-    assert len(headers) == len(SECTIONS) + 1 and headers[-1] == "## `[mavlink]`"
+    assert headers[len(SECTIONS) :] == [f"## `[{name}]`" for name, _ in APP_TABLES]
+    assert len(headers) == len(SECTIONS) + len(APP_TABLES)
     assert "| - | `mavlink.tcp_evict_idle_s` | s | [0.5, 20] (max: tcp_idle_timeout_s) | 3 |" in text
 
 
@@ -106,13 +107,15 @@ def test_the_config_loader_checks_every_declared_range() -> None:
     for path, table in _sections(OnboardConfig()):
         for key, meta in declared(type(table)):
             lo, hi = declared_bounds(table, key)
-            for bound, outside in (
-                (lo, lo - max(1e-3, abs(lo) * 1e-3)),
-                (hi, hi + max(1e-3, abs(hi) * 1e-3)),
+            for bound, outside, is_open in (
+                (lo, lo - max(1e-3, abs(lo) * 1e-3), meta.min_open),
+                (hi, hi + max(1e-3, abs(hi) * 1e-3), meta.max_open),
             ):
                 if not math.isfinite(bound):
                     continue
                 value: float = bound
+                if is_open:  # an open end: the bound itself is outside, the value next to it inside
+                    value, outside = math.nextafter(bound, hi if bound == lo else lo), bound
                 if isinstance(getattr(table, key), int):
                     value, outside = int(bound), int(bound) + (1 if bound == hi else -1)
                 try:

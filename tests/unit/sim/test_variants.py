@@ -159,7 +159,7 @@ def test_sets_then_scale(cfg: VehicleConfig) -> None:
         ({"damping": math.nan}, None, r"^vehicle\.scale\.damping: "),
         ({"added_mass": "1.2"}, None, r"^vehicle\.scale\.added_mass: expected a number"),
         ({"added_mass": True}, None, r"^vehicle\.scale\.added_mass: expected a number"),
-        ({"damping": 2.0}, None, r"^vehicle\.scale\.damping: \[crossflow\]: hull_cd out of range"),
+        ({"damping": 2.0}, None, r"^vehicle\.scale\.damping: \[crossflow\]: hull_cd must be in \[0, 2\]"),
         ({"fin_lift": 10.0}, None, r"^vehicle\.scale\.fin_lift: \[fins\]: lift_slope_per_rad"),
         (None, {"fins.area_m3": 0.03}, r"^vehicle\.set\.fins\.area_m3: unknown key 'area_m3' in fins"),
         (None, {"finz.area_m2": 0.03}, r"^vehicle\.set\.finz\.area_m2: unknown key 'finz'"),
@@ -167,7 +167,7 @@ def test_sets_then_scale(cfg: VehicleConfig) -> None:
         (None, {"sensors.sea": 1.0}, r"^vehicle\.set\.sensors\.sea: is a table"),
         (None, {"fins.area_m2.x": 1.0}, r"^vehicle\.set\.fins\.area_m2\.x: fins\.area_m2 is a value"),
         (None, {"fins.area_m2": "big"}, r"^vehicle\.set\.fins\.area_m2: expected a number, got 'big'$"),
-        (None, {"fins.area_m2": 0.5}, r"^vehicle\.set\.fins\.area_m2: area_m2 out of range"),
+        (None, {"fins.area_m2": 0.5}, r"^vehicle\.set\.fins\.area_m2: area_m2 must be in \(0, 0\.1\) m\^2"),
         (None, {"sensors.sea.fix_std_m": -1.0}, r"^vehicle\.set\.sensors\.sea\.fix_std_m: "),
         (
             None,
