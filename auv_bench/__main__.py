@@ -3,10 +3,11 @@
 Sections: can, planner, loop (onboard), simulator (hil_sim, plus the closed-loop lock-step speed over real
 processes, reported under loop), mission_upload (groundstation, against a real vehicle-side process),
 campaign (auv_campaign: missions per minute with one and with all local workers against ``auv-hil scenario``
-over processes, and where the wall time of a lock-step tick goes), links (groundstation, over processes: a
-100-goal upload by one and by three concurrent ground stations; a genuine ground station's answers and the
-vehicle's HEARTBEAT rate under a MAVLink flood; control-tick overruns and the actuator watchdog under a CAN
-flood of the bench hub; each against the same without the contention or flood).
+over processes, and where the wall time of a lock-step tick goes: ``tick_frames_fraction`` is the frames'
+share), links (groundstation, over processes: a 100-goal upload by one and by three concurrent ground
+stations; a genuine ground station's answers and the vehicle's HEARTBEAT rate under a MAVLink flood;
+control-tick overruns and the actuator watchdog under a CAN flood of the bench hub; each against the same
+without the contention or flood).
 Prints one table per section and writes everything to ``--json PATH``. Figures are measured, never asserted;
 where a figure has a reference measured in the same run, a ratio is given too.
 """

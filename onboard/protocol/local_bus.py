@@ -52,6 +52,7 @@ class LocalBus(can.BusABC):
         can_filters: CanFilters | None = None,
         **kwargs: Any,
     ) -> None:
+        self._accepts: dict[tuple[int, bool], bool] = {}
         super().__init__(channel=channel, can_filters=can_filters, **kwargs)
         self.channel_id = channel
         self.channel_info = f"local bus channel {channel}"
@@ -63,12 +64,25 @@ class LocalBus(can.BusABC):
             self._channel = _channels.setdefault(channel, _Channel())
             self._channel.members = (*self._channel.members, self)
 
+    def _apply_filters(self, filters: CanFilters | None) -> None:
+        """python-can's hook for new acceptance filters: forget the decisions taken under the old ones."""
+        self._accepts = {}
+
+    def _accepts_frame(self, msg: can.Message) -> bool:
+        """Whether this bus's acceptance filters pass ``msg``: python-can's own rule, taken once per id
+        (it depends on the id and its format only) and remembered until the filters change."""
+        key = (msg.arbitration_id, msg.is_extended_id)
+        accept = self._accepts.get(key)
+        if accept is None:
+            accept = self._accepts[key] = self._matches_filters(msg)
+        return accept
+
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         """Queue ``msg`` itself for every other bus on the channel whose acceptance filters pass it."""
         if not self._open:
             raise can.CanOperationError("Cannot operate on a closed bus")
         for peer in self._channel.members:
-            if peer is self or not peer._matches_filters(msg):
+            if peer is self or not peer._accepts_frame(msg):
                 continue
             peer._rx.append(msg)
             if peer._waiting:

@@ -150,7 +150,7 @@ class BusPort:
         if frame.is_error_frame or frame.is_remote_frame or frame.is_extended_id:
             return None
         t_bus_s = frame.timestamp if self.rates_on_bus_time and frame.timestamp else None  # 0: not stamped
-        return self.receiver.receive(frame.arbitration_id, bytes(frame.data), self.clock(), t_bus_s)
+        return self.receiver.receive(frame.arbitration_id, frame.data, self.clock(), t_bus_s)
 
     # --- a bus that can come back --------------------------------------------------------------
     def _up(self) -> bool:

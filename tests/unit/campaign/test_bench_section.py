@@ -58,11 +58,11 @@ def test_tick_split_sums_to_the_tick() -> None:
     assert s["tick_total_us"] == pytest.approx(400.0)
     assert s["tick_onboard_core_us"] == pytest.approx(50.0)
     assert s["tick_simulator_us"] == pytest.approx(100.0)
-    assert s["tick_codec_bus_loop_us"] == pytest.approx(250.0)
+    assert s["tick_frames_us"] == pytest.approx(250.0)
     fractions = [s[k] for k in s if k.endswith("_fraction")]
     assert len(fractions) == 3
     assert sum(fractions) == pytest.approx(1.0)
-    assert s["tick_codec_bus_loop_fraction"] == pytest.approx(0.625)
+    assert s["tick_frames_fraction"] == pytest.approx(0.625)
 
 
 def test_tick_split_without_ticks() -> None:
@@ -75,6 +75,6 @@ def test_rest_split() -> None:
          "codec_e2e_s": 0.1, "bus_s": 0.12, "bus_sends": 10_500.0}  # fmt: skip
     s = rest_split(t)
     assert s["tick_rest_codec_e2e_us"] == pytest.approx(100.0)
-    assert s["tick_rest_virtual_bus_us"] == pytest.approx(120.0)
+    assert s["tick_rest_bus_us"] == pytest.approx(120.0)
     assert s["tick_rest_other_us"] == pytest.approx(30.0)
     assert s["frames_per_tick"] == pytest.approx(10.5)

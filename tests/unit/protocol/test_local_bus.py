@@ -132,3 +132,24 @@ def test_a_receiver_blocked_in_recv_is_woken_by_its_shutdown() -> None:
     reader.join(30.0)
     # woken by the shutdown (or closed before it began to wait): recv says the bus is closed
     assert not reader.is_alive() and len(errors) == 1
+
+
+def test_new_acceptance_filters_apply_to_the_next_frame() -> None:
+    # GIVEN a receiver that accepted id 0x40 WHEN its filters change to 0x41 only THEN 0x40 is no longer queued
+    channel = _channel()
+    tx = LocalBus(channel)
+    rx = LocalBus(channel, can_filters=[{"can_id": 0x40, "can_mask": 0x7FF, "extended": False}])
+    try:
+        tx.send(_frame(0x40))
+        tx.send(_frame(0x41))
+        assert [f.arbitration_id for f in iter(lambda: rx.recv(0.0), None)] == [0x40]
+        rx.set_filters([{"can_id": 0x41, "can_mask": 0x7FF, "extended": False}])
+        tx.send(_frame(0x40))
+        tx.send(_frame(0x41))
+        assert [f.arbitration_id for f in iter(lambda: rx.recv(0.0), None)] == [0x41]
+        extended = can.Message(arbitration_id=0x41, data=bytes(8), is_extended_id=True)
+        tx.send(extended)  # the same number as an extended id: another frame, refused
+        assert rx.recv(0.0) is None
+    finally:
+        tx.shutdown()
+        rx.shutdown()
