@@ -22,7 +22,6 @@ status, the latest navigation solution, what the loop reported) and nothing of t
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -31,7 +30,14 @@ from onboard.core import commands as c
 from onboard.core.config import CoreConfig
 from onboard.core.executive import Executive
 from onboard.core.mission.model import Mission
-from onboard.core.mission.state import MissionEvent, MissionState, MissionStatus, Transition, actuators_live
+from onboard.core.mission.state import (
+    MissionEvent,
+    MissionState,
+    MissionStatus,
+    Transition,
+    actuators_live,
+    goal_problem,
+)
 from onboard.core.params import BusLimits
 from onboard.core.pipeline import Pipeline
 from onboard.core.planner.errors import PlannerError
@@ -166,7 +172,7 @@ class Autopilot:
 
     def restore_progress(self, goal_index: int) -> bool:
         """At boot: make the persisted progress the current goal (IDLE only; START continues from it)."""
-        if self.status.state is not MissionState.IDLE or not 0 <= goal_index < len(self.mission.goals):
+        if self.status.state is not MissionState.IDLE or goal_problem(self.status, goal_index):
             return False
         self.status = replace(
             self.status, goal_index=goal_index, reason=f"progress restored: goal {goal_index}"
@@ -208,7 +214,7 @@ class Autopilot:
             self.pipeline.new_path()
 
     # --- one tick ---------------------------------------------------------------------------------
-    def step(self, cache: Mapping[type, Any], now_s: float, dt_s: float) -> TickRecord:
+    def step(self, cache: dict[type, Any], now_s: float, dt_s: float) -> TickRecord:
         """One tick at ``now_s`` (s) of period ``dt_s`` (s) from the latest-value cache of bus messages."""
         return self.pipeline.tick(self, cache, now_s, dt_s)
 

@@ -1,7 +1,8 @@
 """Commands to the vehicle and the core's verdict on each: the one vocabulary every source speaks.
 
 Every command, from every source (MAVLink, ``--autostart``, the failsafes, the scenario runner, tests), is
-judged by exactly one judge: :meth:`onboard.core.autopilot.Autopilot.handle`, which returns a
+judged by exactly one judge: :meth:`onboard.core.autopilot.Autopilot.handle` (the commander,
+:func:`onboard.core.commander.judge`, asking the state table for the state's preconditions), which returns a
 :class:`Verdict` (an :class:`Outcome` like MAVLink's MAV_RESULT and a human reason). The links only carry
 commands in and verdicts out; they never judge vehicle state themselves.
 
