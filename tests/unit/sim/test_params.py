@@ -97,3 +97,12 @@ def test_mass_matrix_is_symmetric_positive_definite(params) -> None:
     assert np.allclose(mm, mm.T)
     assert np.all(np.linalg.eigvalsh(mm) > 0.0)
     assert np.allclose(np.array(params.coeffs.minv).reshape(6, 6) @ mm, np.eye(6), atol=1e-12)
+
+
+def test_a_subnormal_integration_step_is_refused_with_a_reason(tmp_path: Path) -> None:
+    """GIVEN an integration step_s inside its range (0, 0.2] but so small that control_period_s / step_s
+    overflows THEN the file is refused with the rule's reason (before: an OverflowError traceback)."""
+    p = tmp_path / "tiny_step.toml"
+    p.write_text(DEFAULT_PARAMS_PATH.read_text().replace("step_s = 0.05\n", "step_s = 5e-324\n", 1))
+    with pytest.raises(ConfigError, match=r"integration: step_s must divide control_period_s"):
+        load_params(p)
