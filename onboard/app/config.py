@@ -2,7 +2,8 @@
 
 Tables: [bus] (:class:`onboard.protocol.bus.BusConfig`), [loop] (:class:`onboard.app.loop.LoopConfig`),
 [planner], [nav], [guidance], [control] (with [control.paper], [control.improved], [control.limits]),
-[failsafe], [mission], [mavlink], [log] (:class:`onboard.app.flight_log.LogConfig`). Every table is
+[failsafe], [mission], [mavlink], [store] (:class:`onboard.app.store.StoreConfig`), [log]
+(:class:`onboard.app.flight_log.LogConfig`). Every table is
 optional and every key has a default; unknown tables or keys and out-of-range values stop start-up with one
 clear line (:class:`ConfigError`).
 The default file is ``onboard/config/onboard.toml`` (the one the bench and the scenarios fly with).
@@ -18,6 +19,7 @@ from auv_common.config import ConfigError, from_table, load_toml
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.app.flight_log import LogConfig
 from onboard.app.loop import LoopConfig
+from onboard.app.store import StoreConfig
 from onboard.core.config import CoreConfig
 from onboard.protocol.bus import BusConfig
 
@@ -27,11 +29,12 @@ DEFAULT_CONFIG_PATH = Path(__file__).parents[1] / "config" / "onboard.toml"
 @dataclass(frozen=True)
 class OnboardConfig(CoreConfig):
     """The core's tables (:class:`~onboard.core.config.CoreConfig`) and the program's: bus, loop, MAVLink,
-    the flight log."""
+    the state store, the flight log."""
 
     bus: BusConfig = field(default_factory=BusConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
     mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
+    store: StoreConfig = field(default_factory=StoreConfig)
     log: LogConfig = field(default_factory=LogConfig)
 
     @property

@@ -1,7 +1,12 @@
-"""``auv-onboard run``: start-up, the bus, the loop, the MAVLink endpoint, clean shutdown.
+"""``auv-onboard run``: start-up, the state store, the bus, the loop, the MAVLink endpoint, clean shutdown.
 
 Start-up validates everything first (configuration, mission file) and exits with one clear line (code 2) on
 a bad one; then waits for the bus (one log line every few seconds) and runs until SIGINT/SIGTERM.
+
+The state store (``[store]``, :mod:`onboard.app.store`) is the vehicle's, opened with or without MAVLink:
+the persisted parameter edits apply at boot (:func:`resolve_boot`), the mission progress is kept (by the
+link's mission service, or without MAVLink by :func:`_keep_progress` each tick) and restored, the flight
+logs default to ``<store.dir>/logs``, and a directory that cannot be written is said in the log.
 """
 
 from __future__ import annotations
@@ -22,11 +27,11 @@ from pathlib import Path
 from typing import Any
 
 from auv_common.config import ConfigError, load_toml
-from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import DEFAULT_CONFIG_PATH, OnboardConfig, config_from_dict
 from onboard.app.flight_log import FlightLog, LoggedLink, open_flight_log, run_metadata
 from onboard.app.loop import ControlLoop
 from onboard.app.mission_file import load_mission
+from onboard.app.store import StateStore
 from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Mission, MissionError
@@ -57,6 +62,8 @@ from onboard.protocol.messages import (
 from onboard.protocol.port import BusPort
 
 log = logging.getLogger("onboard")
+#: What the loop calls after each tick: (the tick's output, the loop's time).
+TickHook = Callable[[Any, float], None]
 
 LISTEN = (AhrsAttitude, AhrsRates, DepthMeas, DvlVelocity, PositionFix, FinStatus, PropStatus, Sync)
 
@@ -256,7 +263,10 @@ def _parser() -> argparse.ArgumentParser:
         metavar="TABLE.KEY=VALUE",
         help="override one configuration key (TOML value), e.g. --set control.profile=paper",
     )
-    parser.add_argument("--state-dir", help="MAVLink state directory (missions, parameters)")
+    parser.add_argument(
+        "--state-dir",
+        help="the state store's directory ([store] dir: parameters, progress, missions, flight logs)",
+    )
     parser.add_argument("--no-mavlink", action="store_true", help="run without the MAVLink endpoint")
     parser.add_argument("--summary-json", help="write the loop's counters to this file at exit")
     parser.add_argument("--log-level", default="INFO", help="logging level (default INFO)")
@@ -283,12 +293,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         sets = list(args.set)
         if args.state_dir:
-            sets.append(f"mavlink.state_dir={args.state_dir!r}".replace("'", '"'))
+            sets.append(f"store.dir={json.dumps(args.state_dir)}")
         cfg0 = build_config(args.config, sets)
         mavlink_on = mavlink_on and cfg0.mavlink.enabled
-        store = StateStore(cfg0.mavlink.resolved_state_dir()) if mavlink_on else None
-        if store is not None:  # a directory that cannot be written is reported, never fatal: the vehicle
-            store.open()  # boots with what it can read, says why at every station, refuses what it can't save
+        # with or without MAVLink: a directory that cannot be written is reported (the log; each station),
+        # never fatal: the vehicle boots with what it can read and refuses what it cannot save
+        store = StateStore.of(cfg0.store)
+        store.open()
         boot = resolve_boot(cfg0, sets, store)
         mission = load_mission(args.mission, boot.config.core) if args.mission else None
     except (ConfigError, MissionError) as exc:
@@ -303,6 +314,7 @@ def main(argv: list[str] | None = None) -> int:
             args.autostart,
             stop,
             store=store,
+            mavlink=mavlink_on,
             summary_json=args.summary_json,
             config_name=str(args.config or DEFAULT_CONFIG_PATH),
         )
@@ -319,25 +331,41 @@ def run(
     store: StateStore | None = None,
     summary_json: str | None = None,
     config_name: str = "",
+    mavlink: bool = True,
 ) -> int:
-    """Open the bus, build the loop and run it until ``stop`` is set (``store`` None: no MAVLink link).
+    """Open the bus, build the loop and run it until ``stop`` is set: with the MAVLink link if ``mavlink``
+    (and ``[mavlink] enabled``); ``store``: the opened state store (None: the one of ``[store]``).
 
-    The flight log (``[log]``, :mod:`onboard.app.flight_log`) starts once the bus is open and is closed, with
-    its footer, however the loop ends (``config_name`` names the configuration in its metadata).
+    The flight log (``[log]``, :mod:`onboard.app.flight_log`; default ``<store.dir>/logs``) starts once the
+    bus is open and is closed, with its footer, however the loop ends (``config_name`` names the
+    configuration in its metadata).
 
     The mission: ``mission`` (``--mission``, already checked) wins over the persisted one, which the link
     loads and checks with the same validator; the persisted progress (current goal) of that same mission is
-    restored, disarmed: START continues from it.
+    restored, disarmed: START continues from it. Without the link only ``mission`` is flown, its progress
+    kept in the store under the key the link would give it
+    (:func:`onboard.adapters.mavlink.storage.progress_key`).
     """
     cfg = boot.config
+    if store is None:
+        store = StateStore.of(cfg.store)
+        store.open()
     autopilot = Autopilot(cfg.core, bus_limits=boot.bus_limits)
-    link = _start_link(autopilot, boot, store, mission) if store is not None else None
+    link = _start_link(autopilot, boot, store, mission) if mavlink and cfg.mavlink.enabled else None
+    keep_progress: TickHook | None = None
     if link is not None:
         mission = link.mission() if mission is None else mission
     if mission is not None and mission.goals:
         autopilot.replace_mission(mission)
         log.info("mission: %d goals, %d obstacles", len(mission.goals), len(mission.obstacles))
-        progress = link.progress() if link is not None else None
+        if link is not None:
+            progress = link.progress()
+        else:
+            from onboard.adapters.mavlink.storage import progress_key
+
+            key = progress_key(mission)
+            progress = store.load_progress(key)
+            keep_progress = _keep_progress(store, key)
         if progress is not None and autopilot.restore_progress(progress):
             log.info("mission progress restored: goal %d is the current goal", progress)
         autopilot.take_notes()  # the start-up mission is no news for a ground station
@@ -382,11 +410,11 @@ def run(
         )
     loop = ControlLoop(port, autopilot, cfg.loop)
     start = dt.datetime.now(dt.UTC)
-    flight = open_flight_log(
-        cfg.log, cfg.mavlink.resolved_state_dir(), run_metadata(cfg, config_name, start), start
-    )
+    flight = open_flight_log(cfg.log, store.dir, run_metadata(cfg, config_name, start), start)
     if link is not None or flight is not None:
         _bridge(loop, autopilot, link, flight)
+    if link is None:
+        _watch_store(loop, store, keep_progress)
     log.info(
         "onboard loop: %s at %.0f Hz on %s %s",
         "lock-step" if lockstep else "real time",
@@ -493,6 +521,33 @@ def _start_link(autopilot: Autopilot, boot: BootConfig, store: StateStore, missi
     link = build_link(autopilot, boot, store, mission)
     link.start()
     return link
+
+
+def _keep_progress(store: StateStore, key: str) -> TickHook:
+    """Without the link: the current goal of each tick to the store (``StateStore.keep_progress`` writes it
+    when it changes, and says in the log when it cannot). The mission cannot change without the link, so
+    ``key`` stays its key."""
+
+    def keep(out: Any, _now_s: float) -> None:  # the TickRecord of the real autopilot
+        store.keep_progress(out.status.goal_index, key, time.monotonic())
+
+    return keep
+
+
+def _watch_store(loop: ControlLoop, store: StateStore, keep_progress: TickHook | None) -> None:
+    """Without the link, the loop's tick hook also keeps the progress and probes a store that cannot be
+    written (every ``[store] probe_period_s``; the store logs when it can be written again), the link's jobs
+    when there is one."""
+    inner = loop.on_tick
+
+    def after(out: Any, now_s: float) -> None:
+        if inner is not None:
+            inner(out, now_s)
+        if keep_progress is not None:
+            keep_progress(out, now_s)
+        store.reprobe(time.monotonic())
+
+    loop.on_tick = after
 
 
 def _bridge(loop: ControlLoop, autopilot: Autopilot, link: Any, flight: FlightLog | None = None) -> None:

@@ -1,6 +1,7 @@
 """A vehicle-side process: the real onboard core and MAVLink link over a simple plant (tests, benches).
 
-``python -m onboard.app.standalone --endpoint udpin:127.0.0.1:0 --state-dir DIR [--time-scale K]`` prints
+``python -m onboard.app.standalone --endpoint udpin:127.0.0.1:0 --state-dir DIR [--time-scale K]`` (DIR: the
+state store's directory, ``[store] dir``) prints
 one JSON line ``{"ports": [...], "pid": N}`` on stdout once the sockets are bound, then runs until SIGTERM /
 SIGINT.
 
@@ -12,8 +13,8 @@ with sensor messages. The plant is no model of the vehicle (that is ``hil_sim``)
 propeller through the speed map with a 1 s lag, yaw rate is speed times the rudder's curvature, depth rate is
 speed times the stern. Simulated time runs ``time_scale`` times faster than the wall clock (lock-step
 inside the process: the plan of a tick is awaited, so a run repeats exactly). The configuration is the
-packaged ``onboard.toml`` (``--config`` may give another ``[mavlink]`` table) with the persisted
-ground-station edits of the state directory, resolved and in force before the link exists, by the one
+packaged ``onboard.toml`` (``--config`` may give other ``[mavlink]`` and ``[store]`` tables) with the
+persisted ground-station edits of the state store, resolved and in force before the link exists, by the one
 boot path of ``auv-onboard run`` (:func:`onboard.app.runtime.resolve_boot`, ``build_link``).
 """
 
@@ -32,15 +33,15 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from auv_common.config import ConfigError, load_toml
+from auv_common.config import ConfigError, from_table, load_toml
 from onboard.adapters.mavlink import bridge
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
-from onboard.adapters.mavlink.persistence import StateStore
 from onboard.app.config import load_config
 from onboard.app.loop import LoopStats
 from onboard.app.planning import PlanWorker
 from onboard.app.runtime import build_link, mission_validator, resolve_boot
+from onboard.app.store import StateStore, StoreConfig
 from onboard.core import commands as core
 from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
@@ -72,18 +73,21 @@ def make_link(
     config: MavlinkConfig,
     core_config: CoreConfig | None = None,
     autopilot: Autopilot | None = None,
+    *,
+    store: StateStore,
     **kw: Any,
 ) -> VehicleLink:
-    """A link alone (tests): the one validator (bound to the autopilot's configuration when given) and the
-    parameter table of the configuration; the persisted edits go to the core as requests, and the link
-    answers no PARAM_* or mission request until the loop has judged them all. A vehicle is :func:`build`."""
+    """A link alone (tests) on ``store``: the one validator (bound to the autopilot's configuration when
+    given) and the parameter table of the configuration; the persisted edits go to the core as requests, and
+    the link answers no PARAM_* or mission request until the loop has judged them all. A vehicle is
+    :func:`build`."""
     cc = core_config or (autopilot.config if autopilot is not None else default_core())
     validator = (
         mission_validator(autopilot, config.validate_timeout_s)
         if autopilot is not None
         else functools.partial(check_mission, config=cc)
     )
-    return VehicleLink(config, validator=validator, params=default_params(cc), **kw)
+    return VehicleLink(config, validator=validator, params=default_params(cc), store=store, **kw)
 
 
 @dataclass
@@ -187,9 +191,11 @@ def build(
     initial_mission: Mission | None = None,
     **link_kw: Any,
 ) -> SimpleVehicle:
-    """The link and the vehicle for ``config``: the packaged configuration with the persisted edits of the
-    state directory in force in the core before the link exists (the boot path of ``auv-onboard run``)."""
-    store = store if store is not None else StateStore(config.resolved_state_dir())
+    """The link and the vehicle for ``config``: the packaged configuration with the persisted edits of
+    ``store`` (default: the one of the packaged ``[store]`` table) in force in the core before the link
+    exists (the boot path of ``auv-onboard run``)."""
+    store = store if store is not None else StateStore.of(load_config().store)
+    store.open()
     boot = resolve_boot(dataclasses.replace(load_config(), mavlink=config), [], store)
     ap = Autopilot(boot.config.core, bus_limits=boot.bus_limits)
     link = build_link(ap, boot, store, initial_mission, **link_kw)
@@ -198,29 +204,32 @@ def build(
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m onboard.app.standalone", description=__doc__)
-    ap.add_argument("--config", help="TOML file with a [mavlink] table")
+    ap.add_argument("--config", help="TOML file with [mavlink] and [store] tables")
     ap.add_argument("--endpoint", action="append", help="endpoint spec (repeatable), overrides the config")
-    ap.add_argument("--state-dir", help="state directory (overrides the config)")
+    ap.add_argument("--state-dir", help="the state store's directory (overrides [store] dir)")
     ap.add_argument("--signing-key", help="signing key file (overrides the config)")
     ap.add_argument("--time-scale", type=float, default=1.0, help="simulated time per wall second")
     ap.add_argument("--rate-hz", type=float, default=20.0)
     args = ap.parse_args(argv)
     try:
-        table = load_toml(args.config).get("mavlink", {}) if args.config else {}
+        data = load_toml(args.config) if args.config else {}
+        table = data.get("mavlink", {})
         if args.endpoint:
             table["endpoints"] = args.endpoint
-        if args.state_dir:
-            table["state_dir"] = args.state_dir
         if args.signing_key:
             table["signing_key_file"] = args.signing_key
         config = MavlinkConfig.from_table(table)
+        store_table = data.get("store", {})
+        if args.state_dir:
+            store_table["dir"] = args.state_dir
+        store = StateStore.of(from_table(StoreConfig, store_table, f"{args.config or 'options'} [store]"))
     except ConfigError as exc:
         sys.stderr.write(f"error: {exc}\n")
         return 2
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())
-    vehicle = build(config, args.rate_hz)
+    vehicle = build(config, args.rate_hz, store=store)
     vehicle.link.start()
     try:
         sys.stdout.write(json.dumps({"ports": vehicle.link.ports, "pid": os.getpid()}) + "\n")

@@ -439,10 +439,11 @@ def link_publish_take(quick: bool = False) -> dict[str, float]:
     from onboard.adapters.mavlink.api import VehicleSnapshot
     from onboard.adapters.mavlink.config import MavlinkConfig
     from onboard.app.standalone import make_link
+    from onboard.app.store import StateStore
 
     pairs = 2_000 if quick else 20_000
     with tempfile.TemporaryDirectory() as state_dir:
-        link = make_link(MavlinkConfig(endpoints=("udpin:127.0.0.1:0",), state_dir=state_dir))
+        link = make_link(MavlinkConfig(endpoints=("udpin:127.0.0.1:0",)), store=StateStore(state_dir))
         link.start()
         try:
             t0 = time.perf_counter()

@@ -10,10 +10,9 @@ Example::
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 from auv_common.config import Bound, ConfigError, check_declared, from_table, param, require
 
@@ -40,18 +39,18 @@ def parse_endpoint(spec: str) -> tuple[str, str, int]:
     return parts[0], parts[1], port
 
 
-def default_state_dir() -> Path:
-    """Per-user state path: ``$XDG_STATE_HOME/isimi100`` or ``~/.local/state/isimi100``."""
-    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(base) / "isimi100"
-
-
 @dataclass(frozen=True)
 class MavlinkConfig:
     """MAVLink endpoint settings. Rates in Hz (0 = off), times in s, angles in deg.
 
-    The mission limits (operating area, depth, counts) are not here: the mission validator owns them.
+    The mission limits (operating area, depth, counts) are not here: the mission validator owns them; nor is
+    the state directory: the vehicle's store has its own table, ``[store] dir`` (:mod:`onboard.app.store`).
     """
+
+    #: Keys that moved: refused with the reason (auv_common.config.from_table).
+    REMOVED_KEYS: ClassVar[dict[str, str]] = {
+        "state_dir": "the vehicle's state store has its own table: set [store] dir (store.dir) instead",
+    }
 
     enabled: bool = True
     endpoints: tuple[str, ...] = ("udpout:127.0.0.1:14550",)
@@ -86,7 +85,6 @@ class MavlinkConfig:
         1.0, unit="s", min=0.05, max=30.0,
         desc="a command the loop has not taken by then: TEMPORARILY_REJECTED",
     )  # fmt: skip
-    state_dir: str = ""  # empty = default_state_dir()
     signing_key_file: str = ""  # empty = signing off; 32 raw bytes or 64 hex characters
     #: endpoints (of ``endpoints``) over which SETUP_SIGNING is taken without a signature (a secure link:
     #: a USB serial, a loopback only the vehicle's computer reaches); elsewhere it must be signed
@@ -137,10 +135,6 @@ class MavlinkConfig:
     def from_table(cls, table: dict[str, Any] | None, where: str = "onboard.toml [mavlink]") -> MavlinkConfig:
         """Build from the ``[mavlink]`` TOML table (unknown keys and bad values raise ConfigError)."""
         return from_table(cls, table, where)
-
-    def resolved_state_dir(self) -> Path:
-        """The state directory to use (config value or the per-user default)."""
-        return Path(self.state_dir) if self.state_dir else default_state_dir()
 
 
 def load_signing_key(path: str | Path) -> bytes:

@@ -18,8 +18,9 @@ request (its verdict is only logged) and a STATUSTEXT; a heartbeat again -> a ST
 regained". When a ground station is first heard, the state files the store set aside at boot are announced
 (one STATUSTEXT each).
 
-Storage: the state directory is probed at boot (:meth:`StateStore.open`, which also removes what killed
-writers left); a vehicle whose directory cannot be written boots all the same, with what it could read.
+Storage: the vehicle's state store (``[store]``, handed in by the program, typed by
+:class:`~onboard.adapters.mavlink.storage.Store`) is probed at boot (``Store.open``, which also removes what
+killed writers left); a vehicle whose directory cannot be written boots all the same, with what it could read.
 While nothing can be saved, SYS_STATUS says so (MAV_SYS_STATUS_LOGGING present, enabled, not healthy) and
 every ground station that connects (its first HEARTBEAT over a link, or the first after ``gcs_timeout_s``
 of silence) hears "storage: nothing can be saved (why)"; a change of the storage health goes to every
@@ -50,7 +51,7 @@ from onboard.adapters.mavlink.ftp import FileTree, FtpService
 from onboard.adapters.mavlink.mission_service import MissionService, Validator
 from onboard.adapters.mavlink.params import ParamService, SpecLike
 from onboard.adapters.mavlink.peers import Link, Sender
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import Store
 from onboard.adapters.mavlink.telemetry import CAPABILITIES, Telemetry
 from onboard.adapters.mavlink.transport import Transport, addressed_to
 from onboard.core import commands as core
@@ -84,7 +85,8 @@ class VehicleLink:
         initial_mission: a mission given at start (``--mission``, already checked); it wins over the
             persisted one and is persisted.
         clock: monotonic wall clock (s); tests may inject one.
-        store: the state directory (default: ``config.resolved_state_dir()``).
+        store: the vehicle's state store (:class:`onboard.app.store.StateStore`, ``[store]``), opened here
+            if the program has not (opening twice is a no-op).
         log_dir: the flight logs served over MAVLink FTP (default: ``logs`` in the state directory).
     """
 
@@ -96,13 +98,13 @@ class VehicleLink:
         params: tuple[SpecLike, ...] = (),
         param_values: Mapping[str, float] | None = None,
         initial_mission: Mission | None = None,
+        store: Store,
         clock: Callable[[], float] = time.monotonic,
-        store: StateStore | None = None,
         log_dir: Path | None = None,
     ) -> None:
         self.config = config
         self._clock = clock
-        self.store = store if store is not None else StateStore(config.resolved_state_dir())
+        self.store = store
         self.store.open()  # leftovers removed, the directory probed (a problem is reported, never fatal)
         self._storage_said = self.store.problem()  # what every station heard (a station: at its connect)
         self._stations: dict[Link, float] = {}  # GCS links heard (last HEARTBEAT), for the connect news

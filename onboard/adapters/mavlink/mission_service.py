@@ -24,11 +24,10 @@ Mission seq vs goal index: the core counts goals 0..n-1. When the stored mission
 ArduPilot-style home item (seq 0, see :mod:`onboard.adapters.mavlink.mission_protocol`), MAVLink seq = goal
 index + 1 everywhere; :meth:`MissionService.shape` gives (home offset, number of goals).
 
-Progress: the current goal of the snapshot is persisted (``StateStore.save_progress``) whenever it changes,
-tied to the stored MISSION plan; :meth:`MissionService.progress` returns the persisted one at boot. A save
-that fails is said once (STATUSTEXT, until a save works again) and retried with back-off
-(:data:`PROGRESS_RETRY_S` doubling to :data:`PROGRESS_RETRY_MAX_S`), at once when the store finds the
-directory writable again.
+Progress: the current goal of the snapshot is handed to the store (``Store.keep_progress``, the one rule of
+when it is written: when it changes, retried with back-off after a failure) tied to the stored MISSION plan
+(:func:`~onboard.adapters.mavlink.storage.mission_key`); :meth:`MissionService.progress` returns the
+persisted one at boot. A save that fails is said once (STATUSTEXT, until a save works again).
 """
 
 from __future__ import annotations
@@ -58,7 +57,7 @@ from onboard.adapters.mavlink.mission_protocol import (
     items_from_mission,
 )
 from onboard.adapters.mavlink.peers import Sender
-from onboard.adapters.mavlink.persistence import FILE_NAMES, StateStore, mission_key
+from onboard.adapters.mavlink.storage import PLAN_KINDS, Store, load_plan, mission_key
 from onboard.adapters.mavlink.transport import Transport
 from onboard.core import commands as core
 from onboard.core.commands import Severity, Verdict
@@ -68,9 +67,6 @@ log = logging.getLogger(__name__)
 
 #: The flat-earth projection of the global frames holds away from the poles only.
 MAX_ORIGIN_LAT_DEG = 85.0
-#: A progress save that failed is tried again after this (s), doubling up to the maximum.
-PROGRESS_RETRY_S = 1.0
-PROGRESS_RETRY_MAX_S = 30.0
 
 
 class ProblemLike(Protocol):
@@ -135,7 +131,7 @@ class MissionService:
         config: MavlinkConfig,
         transport: Transport,
         requests: RequestQueue,
-        store: StateStore,
+        store: Store,
         validator: Validator,
         initial_mission: Mission | None = None,
     ) -> None:
@@ -158,7 +154,7 @@ class MissionService:
         )
         stored: dict[int, tuple[MissionItem, ...]] = {}
         for mt in (TYPE_MISSION, TYPE_FENCE):
-            items = store.load_plan(mt)
+            items = load_plan(store, mt)
             if items is not None:
                 stored[mt] = items
         ids = (config.system_id, config.component_id)
@@ -175,13 +171,13 @@ class MissionService:
                 why = f"it could not be checked: {type(exc).__name__}: {exc}"
             if why:
                 for mt in sorted(stored):
-                    store.quarantine(FILE_NAMES[mt], why)
+                    store.quarantine_plan(PLAN_KINDS[mt], why)
                 self.server = MissionServer(self.limits, ids, {})
         if initial_mission is not None:  # --mission: checked by the runtime; wins and is persisted
             goals, fences = items_from_mission(initial_mission)
             for mt, items in ((TYPE_MISSION, goals), (TYPE_FENCE, fences)):
                 try:
-                    store.save_plan(mt, items)
+                    store.save_plan(PLAN_KINDS[mt], items)
                 except OSError as exc:  # the operator's command line: flown this run, said why not kept
                     log.error(
                         "--mission: the %s plan is not saved (%s): lost at a restart", _TYPE_NAMES[mt], exc
@@ -193,12 +189,6 @@ class MissionService:
         self._shape = (self.server.home_offset(), self.server.goal_count())
         self._key = mission_key(self.server.items(TYPE_MISSION))
         self._progress = store.load_progress(self._key)
-        self._saved_progress: tuple[str, int] | None = (
-            None if self._progress is None else (self._key, self._progress)
-        )
-        self._progress_failed = False  # said once until a save works again
-        self._progress_retry_s = 0.0  # the next try after a failure (monotonic), and the back-off
-        self._progress_backoff_s = PROGRESS_RETRY_S
         self._executor = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="mission-check")
         self._judge: _Judge | None = None
 
@@ -354,7 +344,7 @@ class MissionService:
         done: list[int] = []
         for mt, items in sorted(plans.items()):
             try:
-                self.store.save_plan(mt, items)
+                self.store.save_plan(PLAN_KINDS[mt], items)
             except OSError as exc:
                 log.error("the %s plan cannot be saved: %s", _TYPE_NAMES[mt], exc)
                 self._restore_plans(dict.fromkeys(done, ()))
@@ -366,7 +356,7 @@ class MissionService:
         """Write back the plans in force of the types in ``plans`` (a refused candidate was saved)."""
         for mt in sorted(plans):
             try:
-                self.store.save_plan(mt, self.server.items(mt))
+                self.store.save_plan(PLAN_KINDS[mt], self.server.items(mt))
             except OSError as exc:
                 text = (
                     f"the refused {_TYPE_NAMES[mt]} stays saved and is loaded at the next boot: it cannot "
@@ -388,25 +378,7 @@ class MissionService:
             goals = self._mission.goals
         if n == 0 or s.current_goal < 0 or s.mission_goals != goals:
             return  # (a snapshot of the mission before the one just accepted: its progress is not ours)
-        now = (self._key, s.current_goal)
-        if now == self._saved_progress:
-            return
-        if self._progress_failed and now_s < self._progress_retry_s and self.store.problem():
-            return  # back off, unless the store found the directory writable again
-        try:
-            self.store.save_progress(s.current_goal, self._key)
-        except (OSError, ValueError) as exc:
-            self._progress_retry_s = now_s + self._progress_backoff_s
-            self._progress_backoff_s = min(2.0 * self._progress_backoff_s, PROGRESS_RETRY_MAX_S)
-            if not self._progress_failed:
-                self._progress_failed = True
-                text = f"mission progress (goal {s.current_goal}) not saved, retrying: {exc}"
-                log.error("%s", text)
-                self.transport.statustext(Severity.ERROR, text)
-            return
-        if self._progress_failed:
-            self._progress_failed = False
-            self._progress_backoff_s = PROGRESS_RETRY_S
-            log.warning("mission progress (goal %d) saved again", s.current_goal)
-            self.transport.statustext(Severity.NOTICE, f"mission progress (goal {s.current_goal}) saved")
-        self._saved_progress = now
+        news = self.store.keep_progress(s.current_goal, self._key, now_s)
+        if news is not None:
+            saved, text = news
+            self.transport.statustext(Severity.NOTICE if saved else Severity.ERROR, text)

@@ -36,7 +36,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from onboard.adapters.mavlink.commands import RequestQueue
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.peers import Sender
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import Store
 from onboard.adapters.mavlink.transport import Transport, addressed_to
 from onboard.core import commands as core
 from onboard.core.commands import Severity, Verdict
@@ -70,7 +70,7 @@ class ParamService:
         config: MavlinkConfig,
         transport: Transport,
         requests: RequestQueue,
-        store: StateStore,
+        store: Store,
         specs: tuple[SpecLike, ...],
         values: Mapping[str, float] | None = None,
     ) -> None:

@@ -12,16 +12,18 @@ import pytest
 from groundstation.mavclient import MavClient
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.app.standalone import build
+from onboard.app.store import StateStore
 
 TIME_SCALE = 10.0
 
 
 class Vehicle:
     def __init__(self, state_dir: Path, **cfg: object) -> None:
-        table: dict[str, object] = {"endpoints": ("udpin:127.0.0.1:0",), "state_dir": str(state_dir)}
+        table: dict[str, object] = {"endpoints": ("udpin:127.0.0.1:0",)}
         table.update(cfg)
         self.config = MavlinkConfig(**table)  # type: ignore[arg-type]
-        self.loop = build(self.config)
+        self.state_dir = state_dir  # the vehicle's state store ([store] dir)
+        self.loop = build(self.config, store=StateStore(state_dir))
         self.link = self.loop.link
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self.loop.run, args=(self._stop, TIME_SCALE), daemon=True)

@@ -16,6 +16,7 @@ from groundstation.mission_files import goal_item, obstacle_item
 from onboard.adapters.mavlink import api
 from onboard.adapters.mavlink.endpoint import CAPABILITIES
 from onboard.app.standalone import make_link
+from onboard.app.store import StateStore
 from onboard.core import commands as core
 from onboard.core.mission.model import Goal, Mission
 from tests.integration.mavlink.conftest import Vehicle
@@ -123,7 +124,7 @@ def test_params_set_refuse_persist(tmp_path: Path) -> None:
             assert c.param_get("PD_KP5") == pytest.approx(0.25)
     finally:
         v.stop()
-    v2 = make_link(v.config)  # the persisted edit is handed to the core at start
+    v2 = make_link(v.config, store=StateStore(v.state_dir))  # the persisted edit goes to the core at start
     (req,) = v2.take_requests()
     assert req.command == core.SetParam("PD_KP5", pytest.approx(0.25), "persisted edit")
 
@@ -135,11 +136,12 @@ def test_mission_persisted_and_initial_mission_wins(tmp_path: Path) -> None:
             assert c.upload(GOALS).ok
     finally:
         v.stop()
-    assert [g.x_m for g in make_link(v.config).mission().goals] == [10.0, 10.0]
+    stored = StateStore(v.state_dir)
+    assert [g.x_m for g in make_link(v.config, store=stored).mission().goals] == [10.0, 10.0]
     given = Mission(goals=(Goal(1.0, 2.0, 3.0, None),))
-    wins = make_link(v.config, initial_mission=given)
+    wins = make_link(v.config, initial_mission=given, store=stored)
     assert wins.mission().goals == given.goals
-    assert make_link(v.config).mission().goals == given.goals  # and it was persisted
+    assert make_link(v.config, store=stored).mission().goals == given.goals  # and it was persisted
 
 
 def test_gcs_heartbeat_loss_is_a_request_and_regain_a_statustext(tmp_path: Path) -> None:
@@ -190,15 +192,14 @@ def test_threads_do_not_leak(tmp_path: Path) -> None:
 
 def test_a_persisted_mission_that_fails_the_mission_check_is_set_aside_at_boot(tmp_path: Path) -> None:
     # GIVEN a well-formed persisted mission whose goal lies below the failsafe depth (20 m), and its fence
-    from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION, items_from_mission
-    from onboard.adapters.mavlink.persistence import StateStore
+    from onboard.adapters.mavlink.mission_protocol import items_from_mission
     from onboard.core.mission.model import Goal, Mission, Obstacle
     from tests.integration.mavlink.conftest import Vehicle
 
     state = tmp_path / "state"
     goals, fence = items_from_mission(Mission((Goal(10.0, 0.0, 25.0, None),), (Obstacle(0.0, 30.0, 1.0),)))
-    StateStore(state).save_plan(TYPE_MISSION, goals)
-    StateStore(state).save_plan(TYPE_FENCE, fence)
+    StateStore(state).save_plan("mission", goals)
+    StateStore(state).save_plan("fence", fence)
     # WHEN the vehicle boots
     v = Vehicle(state)
     # THEN it boots with no mission, both files are moved aside (kept), and the reason is recorded for the GCS

@@ -26,8 +26,9 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from groundstation.mavclient import MavClient
 from groundstation.mission_files import goal_item, obstacle_item
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import load_plan
 from onboard.app.standalone import bus_limits
+from onboard.app.store import StateStore
 from onboard.core.params import ParamError, apply_param
 from tests.integration.mavlink.conftest import Vehicle
 from tests.integration.mavlink.test_mavsdk_real import bounded, mission_items
@@ -166,7 +167,7 @@ def test_a_persisted_plan_with_yaw_999_is_set_aside_with_the_reason(tmp_path: Pa
     data["items"][1]["param4"] = 999.0
     saved.write_text(json.dumps(data))
     store = StateStore(tmp_path / "state")
-    assert store.load_plan(mavlink.MAV_MISSION_TYPE_MISSION) is None
+    assert load_plan(store, mavlink.MAV_MISSION_TYPE_MISSION) is None
     (why,) = store.quarantined()
     assert "item 1" in why and "999" in why, why
     v2 = Vehicle(tmp_path / "state").start()

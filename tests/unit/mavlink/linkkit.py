@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from onboard.adapters.mavlink import bridge
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.endpoint import VehicleLink
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.app.store import StateStore
 from onboard.core import commands as core
 from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
@@ -56,10 +56,10 @@ class Captured:
         self, state_dir: Path, validator: Callable[[Any], Any] = ok, items: tuple = (), **kw: Any
     ) -> None:
         if items:
-            StateStore(state_dir).save_plan(mavlink.MAV_MISSION_TYPE_MISSION, items)
+            StateStore(state_dir).save_plan("mission", items)
         self.clock = Clock()
-        cfg = kw.pop("config", None) or MavlinkConfig(state_dir=str(state_dir))
-        self.link = VehicleLink(cfg, validator=validator, clock=self.clock, **kw)
+        cfg = kw.pop("config", None) or MavlinkConfig()
+        self.link = VehicleLink(cfg, validator=validator, clock=self.clock, store=StateStore(state_dir), **kw)
         self.out: list[mavlink.MAVLink_message] = []
         self.link.transport.send = self.out.append  # type: ignore[method-assign]
         self._mav = mavlink.MAVLink(None, *GCS)

@@ -10,7 +10,8 @@ import pytest
 from auv_common.config import ConfigError
 from onboard.adapters.mavlink.config import MavlinkConfig, load_signing_key
 from onboard.adapters.mavlink.mission_protocol import TYPE_MISSION, MissionItem
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import load_plan
+from onboard.app.store import StateStore
 
 
 def test_defaults_and_table() -> None:
@@ -52,11 +53,11 @@ def test_signing_key_file_hex_or_raw(tmp_path: Path) -> None:
 def test_state_store_round_trip_with_nan(tmp_path: Path) -> None:
     s = StateStore(tmp_path / "state")
     items = (MissionItem(1, 16, 0.0, math.nan, 0.0, math.nan, 10000, -20000, 3.0),)
-    s.save_plan(TYPE_MISSION, items)
-    loaded = s.load_plan(TYPE_MISSION)
+    s.save_plan("mission", items)
+    loaded = load_plan(s, TYPE_MISSION)
     assert loaded is not None and loaded[0].key() == items[0].key()
     s.save_params({"LIM_RPS": 12.0})
     assert s.load_params() == {"LIM_RPS": 12.0}
     assert not list((tmp_path / "state").glob(".*tmp"))
     (tmp_path / "state" / "fence.json").write_text("{broken")
-    assert s.load_plan(1) is None
+    assert load_plan(s, 1) is None

@@ -23,7 +23,8 @@ from onboard.adapters.mavlink.mission_protocol import (
     mission_from_items,
     seq_of_goal,
 )
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import load_plan
+from onboard.app.store import StateStore
 from onboard.core import commands as core
 from onboard.core.mission.state import MissionState
 
@@ -134,13 +135,13 @@ def test_upload_with_home_stores_all_items_and_downloads_them_unchanged(tmp_path
     items = [home(z=584.0), rel(10.0, 0.0, 1.0), rel(10.0, 10.0, 2.0)]
     ack = only(upload(srv, items))
     assert ack.type == ACCEPTED and srv.items(TYPE_MISSION) == tuple(items)
-    store.save_plan(TYPE_MISSION, srv.items(TYPE_MISSION))
+    store.save_plan("mission", srv.items(TYPE_MISSION))
     assert srv.goal_count() == 2 and srv.home_offset() == 1 and len(srv.mission().goals) == 2
     down = mavlink.MAVLink_mission_request_int_message(1, 1, 0, TYPE_MISSION)
     r = only(srv.handle(down, GCS, 0.0))
     assert (r.seq, r.frame, r.command, r.x, r.y, r.z) == (0, mavlink.MAV_FRAME_GLOBAL, 16, 0, 0, 584.0)
     # persistence round trip: the reloaded plan is the same, with the same goals
-    loaded = store.load_plan(TYPE_MISSION)
+    loaded = load_plan(store, TYPE_MISSION)
     assert loaded is not None and [i.key() for i in loaded] == [i.key() for i in items]
     again = MissionServer(LIMITS, stored={TYPE_MISSION: loaded})
     assert again.mission() == srv.mission() and again.home_offset() == 1

@@ -19,9 +19,10 @@ from onboard.adapters.mavlink.api import MISSION_STATES, VehicleSnapshot
 from onboard.adapters.mavlink.commands import RequestQueue, map_command
 from onboard.adapters.mavlink.config import MavlinkConfig
 from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import load_plan
 from onboard.adapters.mavlink.telemetry import STATE_TABLE, system_status
 from onboard.adapters.mavlink.transport import statustext_chunks
+from onboard.app.store import StateStore
 from onboard.core import commands as core
 from onboard.core.commands import Outcome, Severity
 from onboard.core.mission.state import MissionState
@@ -227,7 +228,7 @@ def test_refused_by_the_validator_maps_the_field_and_names_the_item(tmp_path: Pa
     assert c.mission_ack() == C.MAV_MISSION_INVALID_PARAM5_X
     assert c.texts() == ["goal 2 refused: inside obstacle 1 (inflated)"]
     assert c.link.take_requests() == [] and c.link.mission().goals == ()
-    assert StateStore(tmp_path).load_plan(TYPE_MISSION) is None  # nothing persisted
+    assert load_plan(StateStore(tmp_path), TYPE_MISSION) is None  # nothing persisted
 
 
 @pytest.mark.parametrize(
@@ -257,7 +258,7 @@ def test_accepted_by_validator_and_core_then_persisted_and_acked(tmp_path: Path)
         return MissionCheck()
 
     c = Captured(tmp_path, validator=validator, items=(wp(1, 1, 1),))
-    StateStore(tmp_path).save_plan(TYPE_FENCE, (FENCE,))
+    StateStore(tmp_path).save_plan("fence", (FENCE,))
     c = Captured(tmp_path, validator=validator)
     seen.clear()  # the stored mission was checked at boot (each time a link was made)
     c.upload([wp(7, 0, 1), wp(8, 0, 1)])
@@ -272,7 +273,7 @@ def test_accepted_by_validator_and_core_then_persisted_and_acked(tmp_path: Path)
     c.poll()
     assert c.mission_ack() == C.MAV_MISSION_ACCEPTED and c.link.mission() == cand
     assert c.texts() == ["mission accepted: 2 goals, 1 obstacles (255/190)"]  # told to every station
-    loaded = StateStore(tmp_path).load_plan(TYPE_MISSION)
+    loaded = load_plan(StateStore(tmp_path), TYPE_MISSION)
     assert loaded is not None and [i.x for i in loaded] == [70000, 80000]
     # a fence upload is checked with the stored goals and does not change them
     c.upload([FENCE, FENCE], TYPE_FENCE)
@@ -329,7 +330,7 @@ def test_not_taken_upload_is_refused_loop_not_running(tmp_path: Path) -> None:
 
 
 def test_clear_all_is_one_candidate_and_a_real_core_holds_when_running(tmp_path: Path) -> None:
-    StateStore(tmp_path).save_plan(TYPE_FENCE, (FENCE,))
+    StateStore(tmp_path).save_plan("fence", (FENCE,))
     c = Captured(tmp_path, validator=lambda m: MissionCheck(), items=(wp(10, 0, 1), wp(20, 0, 1)))
     ap = ready_autopilot()
     ap.handle(core.ReplaceMission(c.link.mission(), True, "stored"))
@@ -500,7 +501,7 @@ def test_no_param_or_mission_answer_until_the_persisted_edits_are_in_force(tmp_p
 
 # ---- GCS loss ---------------------------------------------------------------------------------------
 def test_gcs_loss_is_a_request_and_regain_a_statustext(tmp_path: Path) -> None:
-    cfg = MavlinkConfig(state_dir=str(tmp_path), gcs_timeout_s=0.5, gcs_loss_action="hold")
+    cfg = MavlinkConfig(gcs_timeout_s=0.5, gcs_loss_action="hold")
     c = Captured(tmp_path, config=cfg)
     hb = C.MAVLink_heartbeat_message(C.MAV_TYPE_GCS, C.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
     c.rx(hb)

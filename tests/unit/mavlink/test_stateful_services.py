@@ -57,7 +57,8 @@ from onboard.adapters.mavlink.mission_protocol import (
     MissionItem,
 )
 from onboard.adapters.mavlink.peers import Sender
-from onboard.adapters.mavlink.persistence import StateStore
+from onboard.adapters.mavlink.storage import load_plan
+from onboard.app.store import StateStore
 from onboard.core import commands as core
 from onboard.core.autopilot import Autopilot
 from onboard.core.config import CoreConfig
@@ -98,7 +99,7 @@ class Vehicle:
 
     def __init__(self, state_dir: Path, t: float, **kw: Any) -> None:
         self.t = t
-        self.link = VehicleLink(MavlinkConfig(state_dir=str(state_dir)), clock=lambda: self.t, **kw)
+        self.link = VehicleLink(MavlinkConfig(), clock=lambda: self.t, store=StateStore(state_dir), **kw)
         self.out: list[tuple[mavlink.MAVLink_message, Any]] = []
         self.link.transport.send = self._capture  # type: ignore[method-assign]
         self._mav = mavlink.MAVLink(None, 1, 1)
@@ -523,7 +524,7 @@ class MissionMachine(_VehicleMachine):
         keep = stored if not problems(model_mission({TYPE_MISSION: stored, TYPE_FENCE: ()})) else ()
         keep = () if any(format_code(i, TYPE_MISSION) != ACCEPTED or i.z == EXPLODES for i in keep) else keep
         if keep:  # a mission persisted by an earlier run: checked at boot, in force
-            StateStore(self.dir).save_plan(TYPE_MISSION, keep)
+            StateStore(self.dir).save_plan("mission", keep)
             self.stored[TYPE_MISSION] = keep
         note(f"peer B: {b}; stored at boot: {len(keep)} items")
         self.boot()
@@ -734,7 +735,7 @@ class MissionMachine(_VehicleMachine):
             assert [i.key() for i in srv.items(mt)] == want
             # as persisted; a candidate with the core was saved before it judges (issue 21: durable ACK)
             saved = [i.key() for i in with_core[mt]] if mt in with_core else want
-            assert [i.key() for i in StateStore(self.dir).load_plan(mt) or ()] == saved
+            assert [i.key() for i in load_plan(StateStore(self.dir), mt) or ()] == saved
         assert link.mission() == model_mission(self.stored)
         owner = self.judging.owner if self.judging else self.up.owner if self.up else None
         assert srv.transfer_sender == (None if owner is None else self.peers[owner])
@@ -976,7 +977,7 @@ test_parameter_service = ParamMachine.TestCase
 # ---- what the model found ----------------------------------------------------------------------------
 def test_a_clear_by_another_peer_during_an_upload_is_denied_and_the_upload_goes_on(tmp_path: Path) -> None:
     b = B_VARIANTS["same ids, another link"]
-    StateStore(tmp_path).save_plan(TYPE_MISSION, (wp(1, 1, 1.0),))
+    StateStore(tmp_path).save_plan("mission", (wp(1, 1, 1.0),))
     v = Vehicle(tmp_path, T0, validator=lambda _m: MissionCheck())
     circles = (fence(5, 5, 1.0), fence(6, 6, 1.0))
     v.rx(C.MAVLink_mission_count_message(1, 1, 2, TYPE_FENCE), A)  # A uploads a fence

@@ -323,8 +323,8 @@ rudder_limit_deg = 22.0
 stern_limit_deg = 21.0
 [failsafe]
 max_depth_m = 12.0
-[mavlink]
-state_dir = "STATE"
+[store]
+dir = "STATE"
 """
 
 

@@ -1,8 +1,19 @@
-"""The state directory: atomic JSON files that can never brick the vehicle.
+"""The vehicle's state store: atomic JSON files in one directory that can never brick the vehicle.
 
-Files: ``mission.json`` and ``fence.json`` (the stored plans, MISSION_ITEM_INT encoding), ``params.json``
-(ground-station parameter edits) and ``progress.json`` (the goal the mission has reached, tied to that
-mission by :func:`mission_key`).
+It belongs to the vehicle program, not to a link: ``auv-onboard run`` opens it with or without MAVLink
+(``--no-mavlink``: the persisted parameter edits apply, the mission progress is saved and restored, the
+flight logs go to ``<dir>/logs``, a directory that cannot be written is said in the log). Configured by the
+``[store]`` table (:class:`StoreConfig`; ``--state-dir`` on the command line). The MAVLink link gets it
+handed in, typed by the protocol it owns (:class:`onboard.adapters.mavlink.storage.Store`): adapters do not
+import the program.
+
+Files: ``mission.json`` and ``fence.json`` (the stored plans: items in the shared MISSION_ITEM_INT encoding,
+:class:`auv_common.mission_items.MissionItem`), ``params.json`` (ground-station parameter edits),
+``progress.json`` (the goal the mission has reached, tied to that mission by its key, an opaque string:
+:func:`onboard.adapters.mavlink.storage.mission_key`),
+``origin.json`` (SET_GPS_GLOBAL_ORIGIN), ``signing_key.json`` and ``signing.json`` (MAVLink signing: the key
+a SETUP_SIGNING set, the newest timestamp accepted). The formats are those the MAVLink adapter wrote before
+the store moved here (``onboard/adapters/mavlink/persistence.py``): a vehicle upgraded keeps its files.
 
 Writing (:func:`write_json_atomic`): to a temporary file, fsync, rename, fsync the directory. After it
 returns, a kill -9 or power loss leaves either the old or the new file, never a partial one. The MAVLink
@@ -11,76 +22,96 @@ endpoint saves a mission, a fence or a parameter before it is in force and refus
 the probe's ``.write-probe.<pid>``): :meth:`StateStore.open` removes them at boot.
 
 Storage health (:meth:`StateStore.problem`): "" while the directory can be written, else one line saying
-why not (e.g. "state directory /x is not writable: No space left on device"). Set by the boot probe and
-by every write that fails; cleared by a write or a probe that succeeds (:meth:`StateStore.reprobe` tries
-every :data:`PROBE_PERIOD_S` while there is a problem: a disk that frees up is writable again without a
-reboot). A vehicle whose directory cannot be written still boots with what it can read.
+why not (e.g. "state directory /x is not writable: No space left on device"), logged (ERROR) when it
+appears. Set by the boot probe and by every write that fails; cleared by a write or a probe that succeeds
+(:meth:`StateStore.reprobe` tries every ``[store] probe_period_s`` while there is a problem: a disk that
+frees up is writable again without a reboot). A vehicle whose directory cannot be written still boots with
+what it can read.
 
-Reading: a file that is not valid JSON, has the wrong shape, or whose values fail the format checks
-(:class:`MissionItem` fields of the right JSON types;
-:func:`~onboard.adapters.mavlink.mission_protocol.check_item`: frame, command, numbers, lat/lon; the
-validator's configuration-free rules for the goal or obstacle each item stands for,
-:func:`~onboard.core.mission.validate.check_goal_values` / ``check_obstacle_values``: a null z, a fence
-radius <= 0; the operating-area, depth and count *limits* are not applied here: the runtime checks the
-whole mission with :func:`~onboard.core.mission.validate.check_mission` after conversion and may
-:meth:`StateStore.quarantine` a plan it refuses) is moved aside to
-``NAME.invalid-<UTC time>`` (kept for inspection), logged with one ERROR line and recorded:
-:meth:`StateStore.quarantined` returns one human line per file, which the adapter announces (STATUSTEXT)
-when a ground station connects. The load then returns "nothing stored" (None, {}), so the vehicle boots
-with no mission rather than not at all.
+Reading: a file that is not valid JSON, has the wrong shape, or whose values fail the format checks (for a
+plan: :class:`MissionItem` fields of the right JSON types, and the check its owner gives
+:meth:`StateStore.load_plan`: the MAVLink adapter's, :func:`onboard.adapters.mavlink.storage.load_plan`,
+checks each item as an upload is checked) is moved aside to ``NAME.invalid-<UTC time>`` (kept for
+inspection), logged with one ERROR line and recorded: :meth:`StateStore.quarantined` returns one human line
+per file, which the MAVLink link announces (STATUSTEXT) when a ground station connects. The load then
+returns "nothing stored" (None, {}), so the vehicle boots with no mission rather than not at all.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime
-import hashlib
 import json
 import logging
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
-from pymavlink.dialects.v20 import common as mavlink
-
-from onboard.adapters.mavlink.mission_protocol import (
-    TYPE_FENCE,
-    TYPE_MISSION,
-    MissionItem,
-    MissionLimits,
-    check_item,
-    goal_from_item,
-    is_home_item,
-    obstacle_from_item,
-)
-from onboard.core.mission.validate import Problem, check_goal_values, check_obstacle_values
+from auv_common.config import check_declared, param
+from auv_common.mission_items import MissionItem
 
 log = logging.getLogger(__name__)
 
-FILE_NAMES = {TYPE_MISSION: "mission.json", TYPE_FENCE: "fence.json"}
+#: The two stored plans, by kind.
+PlanKind = Literal["mission", "fence"]
+PLAN_FILES: dict[str, str] = {"mission": "mission.json", "fence": "fence.json"}
 PARAMS_FILE = "params.json"
 PROGRESS_FILE = "progress.json"
 SIGNING_FILE = "signing.json"
 SIGNING_KEY_FILE = "signing_key.json"
 ORIGIN_FILE = "origin.json"
 FORMAT_VERSION = 1
-#: MAVLink PARAM_* ids are at most 16 characters.
+#: MAVLink PARAM_* ids are at most 16 characters (the parameter names of the core's table).
 MAX_PARAM_NAME = 16
 #: While the directory cannot be written, a probe this often (s; one small file, synced, removed).
 PROBE_PERIOD_S = 2.0
-_STATE_FILES = (*FILE_NAMES.values(), PARAMS_FILE, PROGRESS_FILE, SIGNING_FILE, SIGNING_KEY_FILE, ORIGIN_FILE)
+#: A progress save that failed is tried again after this (s), doubling up to the maximum.
+PROGRESS_RETRY_S = 1.0
+PROGRESS_RETRY_MAX_S = 30.0
+_STATE_FILES = (*PLAN_FILES.values(), PARAMS_FILE, PROGRESS_FILE, SIGNING_FILE, SIGNING_KEY_FILE, ORIGIN_FILE)
 #: What a kill -9 leaves: the temporary file of write_json_atomic, or the write probe (``<pid>``).
 _LEFTOVER = re.compile(
     r"\.(?:(?:" + "|".join(re.escape(n) for n in _STATE_FILES) + r")\.(\d+)\.tmp|write-probe\.(\d+))"
 )
 
-# check_item checks the format only (the limits belong to the whole-mission check); the origin is irrelevant.
-_FORMAT_LIMITS = MissionLimits()
 _INT_FIELDS = ("frame", "command", "x", "y", "autocontinue")
 _FLOAT_FIELDS = ("param1", "param2", "param3", "param4", "z")  # null = NaN
+
+#: The check a plan's owner gives :meth:`StateStore.load_plan`: ``(seq, item) -> why it is invalid``
+#: ("" valid).
+ItemCheck = Callable[[int, MissionItem], str]
+
+
+def default_state_dir() -> Path:
+    """Per-user state path: ``$XDG_STATE_HOME/isimi100`` or ``~/.local/state/isimi100``."""
+    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(base) / "isimi100"
+
+
+@dataclass(frozen=True)
+class StoreConfig:
+    """The ``[store]`` table: where the vehicle keeps what must survive a restart.
+
+    ``dir``: the directory ("" = :func:`default_state_dir`; ``--state-dir`` on the command line). It was
+    ``[mavlink] state_dir`` (refused now, with the reason): the store is the vehicle's, not the link's.
+    """
+
+    dir: str = ""
+    probe_period_s: float = param(
+        PROBE_PERIOD_S, unit="s", min=0.1, max=60.0,
+        desc="while the store's directory cannot be written, it is probed again this often",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        check_declared(self)
+
+    def resolved_dir(self) -> Path:
+        """The directory to use (the configured one or the per-user default)."""
+        return Path(self.dir) if self.dir else default_state_dir()
 
 
 class StateDirError(OSError):
@@ -119,12 +150,6 @@ def write_json_atomic(path: Path, data: Any, durable: bool = True, mode: int = 0
         os.close(fd)
 
 
-def mission_key(items: Sequence[MissionItem]) -> str:
-    """A stable hash (hex SHA-256) of a stored MISSION plan: progress is kept for exactly this plan."""
-    canonical = json.dumps([i.to_json() for i in items], sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(canonical.encode("utf-8")).hexdigest()
-
-
 # ---- format checks ---------------------------------------------------------------------------------
 def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
@@ -144,32 +169,6 @@ def _shape(data: Any, key: str, kind: type) -> Any:
     return data[key]
 
 
-def _null(v: float) -> str:
-    return "null" if math.isnan(v) else f"{v:g}"
-
-
-def describe_item_error(item: MissionItem, code: int, mission_type: int) -> str:
-    """A human phrase for the MAV_MISSION code of one item, e.g. "frame 99 unsupported"."""
-    params = (item.param1, item.param2, item.param3, item.param4)
-    if code == mavlink.MAV_MISSION_UNSUPPORTED_FRAME:
-        return f"frame {item.frame} unsupported"
-    if code == mavlink.MAV_MISSION_UNSUPPORTED:
-        return f"command {item.command} unsupported"
-    if code == mavlink.MAV_MISSION_INVALID_PARAM1 and mission_type == TYPE_FENCE:
-        return f"fence radius (param1) {_null(item.param1)} invalid"
-    if mavlink.MAV_MISSION_INVALID_PARAM1 <= code <= mavlink.MAV_MISSION_INVALID_PARAM4:
-        n = code - mavlink.MAV_MISSION_INVALID_PARAM1
-        return f"param{n + 1} {_null(params[n])} invalid"
-    if code == mavlink.MAV_MISSION_INVALID_PARAM5_X:
-        return f"x {item.x} invalid"
-    if code == mavlink.MAV_MISSION_INVALID_PARAM6_Y:
-        return f"y {item.y} invalid"
-    if code == mavlink.MAV_MISSION_INVALID_PARAM7:
-        return f"z {_null(item.z)} invalid"
-    entry = mavlink.enums["MAV_MISSION_RESULT"].get(code)
-    return f"refused ({entry.name if entry is not None else code})"
-
-
 def _item_from_json(d: Any) -> MissionItem:
     if not isinstance(d, dict):
         raise InvalidStateFile(f"expected an object, got {d!r}")
@@ -185,30 +184,18 @@ def _item_from_json(d: Any) -> MissionItem:
     return MissionItem.from_json(d)
 
 
-def _value_problems(item: MissionItem, mission_type: int, seq: int) -> list[Problem]:
-    """The validator's configuration-free rules for the goal or obstacle an item stands for (e.g. a null z,
-    a fence radius <= 0); a home item is not a goal."""
-    if mission_type == TYPE_FENCE:
-        return check_obstacle_values(seq, obstacle_from_item(item, _FORMAT_LIMITS))
-    if is_home_item(item, seq, mission_type):
-        return []
-    return check_goal_values(seq, goal_from_item(item, _FORMAT_LIMITS))
-
-
-def parse_plan(data: Any, mission_type: int) -> tuple[MissionItem, ...]:
-    """The items of a plan file's JSON content; raises :class:`InvalidStateFile` naming the first bad item."""
+def parse_plan(data: Any, check: ItemCheck | None = None) -> tuple[MissionItem, ...]:
+    """The items of a plan file's JSON content, each passing ``check`` (when given); raises
+    :class:`InvalidStateFile` naming the first bad item ("item 3: frame 99 unsupported")."""
     out = []
     for seq, d in enumerate(_shape(data, "items", list)):
         try:
             item = _item_from_json(d)
         except InvalidStateFile as exc:
             raise InvalidStateFile(f"item {seq}: {exc}") from None
-        code = check_item(item, mission_type, _FORMAT_LIMITS, seq)
-        if code != mavlink.MAV_MISSION_ACCEPTED:
-            raise InvalidStateFile(f"item {seq}: {describe_item_error(item, code, mission_type)}")
-        problems = _value_problems(item, mission_type, seq)
-        if problems:
-            raise InvalidStateFile(f"item {seq}: {problems[0].reason}")
+        why = check(seq, item) if check is not None else ""
+        if why:
+            raise InvalidStateFile(f"item {seq}: {why}")
         out.append(item)
     return tuple(out)
 
@@ -236,14 +223,26 @@ def parse_progress(data: Any) -> tuple[str, int]:
 
 # ---- the store ---------------------------------------------------------------------------------
 class StateStore:
-    """The endpoint's state directory: mission.json, fence.json, params.json, progress.json."""
+    """The vehicle's state directory (the module docstring): the plans, the parameter edits, the mission
+    progress, the origin and the signing state. Thread-safe enough for its use: one writer per file (the
+    MAVLink I/O thread, or the loop's progress without MAVLink)."""
 
-    def __init__(self, state_dir: Path | str) -> None:
+    def __init__(self, state_dir: Path | str, probe_period_s: float = PROBE_PERIOD_S) -> None:
         self.dir = Path(state_dir)
+        self.probe_period_s = probe_period_s
         self._quarantined: list[str] = []
         self._problem = ""
         self._opened = False
         self._next_probe_s = 0.0
+        self._progress_saved: tuple[str, int] | None = None  # (mission key, goal) on the disk
+        self._progress_failed = False  # said once until a save works again
+        self._progress_retry_s = 0.0  # the next try after a failure (monotonic), and the back-off
+        self._progress_backoff_s = PROGRESS_RETRY_S
+
+    @classmethod
+    def of(cls, config: StoreConfig) -> StateStore:
+        """The store of the ``[store]`` table."""
+        return cls(config.resolved_dir(), config.probe_period_s)
 
     # ---- start-up checks and storage health ------------------------------------------------------
     def open(self) -> str:
@@ -298,9 +297,9 @@ class StateStore:
         return self._problem
 
     def reprobe(self, now_s: float) -> str:
-        """While there is a problem, probe at most every :data:`PROBE_PERIOD_S` (``now_s``: monotonic)."""
+        """While there is a problem, probe at most every ``probe_period_s`` (``now_s``: monotonic)."""
         if self._problem and now_s >= self._next_probe_s:
-            self._next_probe_s = now_s + PROBE_PERIOD_S
+            self._next_probe_s = now_s + self.probe_period_s
             self.probe()
         return self._problem
 
@@ -393,22 +392,26 @@ class StateStore:
             return None
 
     # ---- plans -----------------------------------------------------------------------------------
-    def save_plan(self, mission_type: int, items: tuple[MissionItem, ...]) -> None:
-        self._write(
-            FILE_NAMES[mission_type], {"version": FORMAT_VERSION, "items": [i.to_json() for i in items]}
-        )
+    def save_plan(self, kind: PlanKind, items: Sequence[MissionItem]) -> None:
+        """Save the ``kind`` plan ("mission" or "fence"); raises :class:`StateDirError` when it cannot."""
+        self._write(PLAN_FILES[kind], {"version": FORMAT_VERSION, "items": [i.to_json() for i in items]})
 
-    def load_plan(self, mission_type: int) -> tuple[MissionItem, ...] | None:
-        """The stored plan, or None (nothing stored, or the file was invalid and was set aside)."""
-        name = FILE_NAMES[mission_type]
+    def load_plan(self, kind: PlanKind, check: ItemCheck | None = None) -> tuple[MissionItem, ...] | None:
+        """The stored ``kind`` plan, each item passing ``check`` (the plan owner's: what an item means is
+        not the store's); None: nothing stored, or the file was invalid and was set aside."""
+        name = PLAN_FILES[kind]
         data = self._load(name)
         if data is None:
             return None
         try:
-            return parse_plan(data, mission_type)
+            return parse_plan(data, check)
         except Exception as exc:  # anything in untrusted content (e.g. a 400-digit number) means invalid
             self.quarantine(name, _why(exc))
             return None
+
+    def quarantine_plan(self, kind: PlanKind, why: str) -> str:
+        """:meth:`quarantine` the ``kind`` plan file (well formed, but refused by the whole-mission check)."""
+        return self.quarantine(PLAN_FILES[kind], why)
 
     # ---- parameters ------------------------------------------------------------------------------
     def save_params(self, values: dict[str, float]) -> None:
@@ -448,7 +451,7 @@ class StateStore:
 
     # ---- mission progress ------------------------------------------------------------------------
     def save_progress(self, goal_index: int, mission_key: str) -> None:
-        """Persist the active goal of the mission whose :func:`mission_key` is ``mission_key``."""
+        """Persist the active goal of the mission whose key is ``mission_key``."""
         if not _is_int(goal_index) or goal_index < 0:
             raise ValueError(f"goal_index must be an integer >= 0, got {goal_index!r}")
         self._write(
@@ -472,7 +475,41 @@ class StateStore:
         if key != mission_key:
             log.info("progress.json belongs to another mission; starting at goal 0")
             return None
+        self._progress_saved = (key, index)
         return index
+
+    def keep_progress(self, goal_index: int, mission_key: str, now_s: float) -> tuple[bool, str] | None:
+        """The one rule of when the mission progress is written, for the MAVLink link and the vehicle
+        without it alike: save ``goal_index`` of the mission ``mission_key`` unless it is what the file holds
+        (saved or loaded); after a failure, try again with back-off (:data:`PROGRESS_RETRY_S` doubling to
+        :data:`PROGRESS_RETRY_MAX_S`, ``now_s`` monotonic), at once when the directory is writable again.
+
+        Returns news for the operator, logged here already: ``(False, why)`` once when saving starts to
+        fail, ``(True, line)`` when it works again; None otherwise.
+        """
+        now = (mission_key, goal_index)
+        if now == self._progress_saved or goal_index < 0:
+            return None
+        if self._progress_failed and now_s < self._progress_retry_s and self._problem:
+            return None  # back off, unless the directory was found writable again
+        try:
+            self.save_progress(goal_index, mission_key)
+        except (OSError, ValueError) as exc:
+            self._progress_retry_s = now_s + self._progress_backoff_s
+            self._progress_backoff_s = min(2.0 * self._progress_backoff_s, PROGRESS_RETRY_MAX_S)
+            if self._progress_failed:
+                return None
+            self._progress_failed = True
+            text = f"mission progress (goal {goal_index}) not saved, retrying: {exc}"
+            log.error("%s", text)
+            return False, text
+        self._progress_saved = now
+        if not self._progress_failed:
+            return None
+        self._progress_failed = False
+        self._progress_backoff_s = PROGRESS_RETRY_S
+        log.warning("mission progress (goal %d) saved again", goal_index)
+        return True, f"mission progress (goal {goal_index}) saved"
 
     # ---- signing ---------------------------------------------------------------------------------
     def save_signing_key(self, key: bytes | None) -> None:
@@ -550,10 +587,13 @@ def _refuse_constant(name: str) -> float:
 
 
 __all__ = [
-    "FILE_NAMES",
+    "PLAN_FILES",
     "InvalidStateFile",
+    "ItemCheck",
+    "PlanKind",
     "StateDirError",
     "StateStore",
-    "mission_key",
+    "StoreConfig",
+    "default_state_dir",
     "write_json_atomic",
 ]

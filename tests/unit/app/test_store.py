@@ -1,4 +1,5 @@
-"""The state directory cannot brick the vehicle: a bad file is moved aside, announced and not loaded."""
+"""The vehicle's state store (onboard.app.store) cannot brick the vehicle: a bad file is moved aside,
+announced and not loaded (a stored plan's items checked as an upload is: onboard.adapters.mavlink.storage)."""
 
 from __future__ import annotations
 
@@ -12,14 +13,10 @@ from typing import Any
 
 import pytest
 
+from auv_common.config import ConfigError
 from onboard.adapters.mavlink.mission_protocol import TYPE_FENCE, TYPE_MISSION, MissionItem
-from onboard.adapters.mavlink.persistence import (
-    PARAMS_FILE,
-    PROGRESS_FILE,
-    StateDirError,
-    StateStore,
-    mission_key,
-)
+from onboard.adapters.mavlink.storage import load_plan, mission_key
+from onboard.app.store import PARAMS_FILE, PROGRESS_FILE, StateDirError, StateStore
 
 WP = MissionItem(1, 16, 0.0, math.nan, 0.0, math.nan, 100_000, -20_000, 3.0)  # LOCAL_NED waypoint
 FENCE = MissionItem(1, 5004, 2.0, 0.0, 0.0, 0.0, 50_000, 50_000, 0.0)  # circle exclusion, radius 2 m
@@ -40,11 +37,11 @@ def asides(directory: Path, name: str) -> list[Path]:
 
 def test_good_files_round_trip(tmp_path: Path) -> None:
     store = StateStore(tmp_path)
-    store.save_plan(TYPE_MISSION, (WP,))
-    store.save_plan(TYPE_FENCE, (FENCE,))
+    store.save_plan("mission", (WP,))
+    store.save_plan("fence", (FENCE,))
     store.save_params({"LIM_RPS": 12.0})
     again = StateStore(tmp_path)
-    mission, fence = again.load_plan(TYPE_MISSION), again.load_plan(TYPE_FENCE)
+    mission, fence = load_plan(again, TYPE_MISSION), load_plan(again, TYPE_FENCE)
     assert mission is not None and [i.key() for i in mission] == [WP.key()]
     assert fence == (FENCE,)
     assert again.load_params() == {"LIM_RPS": 12.0}
@@ -53,7 +50,7 @@ def test_good_files_round_trip(tmp_path: Path) -> None:
 
 def test_nothing_stored_is_not_a_problem(tmp_path: Path) -> None:
     store = StateStore(tmp_path / "absent")
-    assert store.load_plan(TYPE_MISSION) is None and store.load_params() == {}
+    assert load_plan(store, TYPE_MISSION) is None and store.load_params() == {}
     assert store.load_progress("k") is None and store.quarantined() == []
 
 
@@ -101,8 +98,8 @@ def test_an_invalid_plan_file_is_moved_aside_and_announced(
 ) -> None:
     write(tmp_path / name, content)
     store = StateStore(tmp_path)
-    with caplog.at_level(logging.ERROR, logger="onboard.adapters.mavlink.persistence"):
-        assert store.load_plan(mission_type) is None
+    with caplog.at_level(logging.ERROR, logger="onboard.app.store"):
+        assert load_plan(store, mission_type) is None
     assert not (tmp_path / name).exists()
     (aside,) = asides(tmp_path, name)
     assert aside.read_text() == (content if isinstance(content, str) else json.dumps(content))  # kept as is
@@ -112,7 +109,7 @@ def test_an_invalid_plan_file_is_moved_aside_and_announced(
     assert len(errors) == 1 and why in errors[0].getMessage()
     # the next boot finds nothing (and says nothing more)
     again = StateStore(tmp_path)
-    assert again.load_plan(mission_type) is None and again.quarantined() == []
+    assert load_plan(again, mission_type) is None and again.quarantined() == []
 
 
 def test_fence_radius_minus_two_names_the_item(tmp_path: Path) -> None:
@@ -121,7 +118,7 @@ def test_fence_radius_minus_two_names_the_item(tmp_path: Path) -> None:
         plan_file(FENCE.to_json(), FENCE.to_json(), {**FENCE.to_json(), "param1": -2}),
     )
     store = StateStore(tmp_path)
-    assert store.load_plan(TYPE_FENCE) is None
+    assert load_plan(store, TYPE_FENCE) is None
     assert "(item 2: radius -2 m must be positive)" in store.quarantined()[0]
 
 
@@ -185,10 +182,10 @@ def test_an_invalid_progress_file_is_moved_aside(tmp_path: Path, content: Any) -
 
 def test_quarantine_is_public_for_whole_mission_refusals(tmp_path: Path) -> None:
     store = StateStore(tmp_path)
-    store.save_plan(TYPE_MISSION, (WP,))
+    store.save_plan("mission", (WP,))
     line = store.quarantine("mission.json", "goal 0: depth 30 m is below the failsafe depth limit 20 m")
     assert "goal 0: depth 30 m" in line and store.quarantined() == [line]
-    assert store.load_plan(TYPE_MISSION) is None
+    assert load_plan(store, TYPE_MISSION) is None
 
 
 def test_a_state_directory_that_cannot_be_created(tmp_path: Path) -> None:
@@ -235,7 +232,7 @@ def test_absurd_numbers_or_nesting_make_invalid_files_not_a_crash(
     (tmp_path / name).write_text(text)
     store = StateStore(tmp_path)
     assert store.load_params() == {}
-    assert store.load_plan(TYPE_MISSION) is None
+    assert load_plan(store, TYPE_MISSION) is None
     assert store.load_progress("key") is None
     assert len(store.quarantined()) == 1 and name in store.quarantined()[0]
     assert not (tmp_path / name).exists()
@@ -300,3 +297,53 @@ def test_a_failed_save_is_the_storage_problem_until_a_probe_or_save_works(tmp_pa
     assert store.reprobe(100.0) == ""  # the next probe finds it writable (created)
     store.save_params({"PD_KP5": -0.5})
     assert store.load_params() == {"PD_KP5": -0.5}
+
+
+# ---- the [store] table (issue 22 item 4: the store is the vehicle's, not MAVLink's) -------------------
+def test_the_store_table_and_its_default_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from onboard.app.config import config_from_dict, load_config
+    from onboard.app.store import StoreConfig
+
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg"))
+    assert load_config().store == StoreConfig()  # the packaged onboard.toml says the defaults
+    assert StoreConfig().resolved_dir() == tmp_path / "xdg" / "isimi100"
+    cfg = config_from_dict({"store": {"dir": str(tmp_path / "s"), "probe_period_s": 0.5}}, "x")
+    store = StateStore.of(cfg.store)
+    assert store.dir == tmp_path / "s" and store.probe_period_s == 0.5
+
+
+def test_mavlink_state_dir_in_a_config_file_is_refused_naming_store_dir() -> None:
+    from onboard.app.config import config_from_dict
+
+    with pytest.raises(ConfigError) as err:
+        config_from_dict({"mavlink": {"state_dir": "/var/lib/auv"}}, "onboard.toml")
+    (line,) = str(err.value).splitlines()
+    assert "state_dir was removed" in line and "[store] dir (store.dir)" in line
+
+
+def test_the_state_dir_option_sets_store_dir(tmp_path: Path) -> None:
+    from onboard.app.runtime import build_config
+
+    state = tmp_path / 'a "quoted" dir'
+    cfg = build_config(None, [f"store.dir={json.dumps(str(state))}"])
+    assert StateStore.of(cfg.store).dir == state
+
+
+def test_progress_is_written_when_it_changes_and_retried_with_back_off(tmp_path: Path) -> None:
+    # GIVEN a store whose directory is a file (a disk that cannot be written), then becomes writable
+    blocker = tmp_path / "state"
+    blocker.write_text("")
+    store = StateStore(blocker)
+    store.open()
+    # WHEN the progress changes: the failure is said once, the retries back off
+    failed = store.keep_progress(1, "k", 0.0)
+    assert failed is not None and failed[0] is False and "goal 1) not saved, retrying" in failed[1]
+    assert store.keep_progress(1, "k", 0.5) is None  # within the back-off: not tried, not said again
+    blocker.unlink()
+    assert store.keep_progress(1, "k", 0.6) is None  # still backing off (the store has not probed yet)
+    # THEN once due it is saved and said; the same value again is not written
+    assert store.keep_progress(1, "k", 1.5) == (True, "mission progress (goal 1) saved")
+    assert StateStore(blocker).load_progress("k") == 1
+    (blocker / PROGRESS_FILE).unlink()
+    assert store.keep_progress(1, "k", 2.0) is None and not (blocker / PROGRESS_FILE).exists()
+    assert store.keep_progress(2, "k", 2.0) is None and StateStore(blocker).load_progress("k") == 2
