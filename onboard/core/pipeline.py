@@ -111,7 +111,7 @@ class Pipeline:
         ABORT (a FAILSAFE event) while the vehicle may move; the flags failing this tick."""
         if ap.encode_fault:
             fault, ap.encode_fault = ap.encode_fault, ""
-            if ap.status.active or ap.status.state is MissionState.ARMED:
+            if ap.status.live:  # moving, or armed to move
                 ap.apply(MissionEvent.FAILSAFE, detail=fault)
             else:
                 ap.note(c.Severity.ERROR, fault)
