@@ -9,8 +9,10 @@ are JSON (``message_encoding="json"``) with one JSON Schema per channel (``encod
 units and radians as in :class:`~onboard.adapters.mavlink.api.VehicleSnapshot` (NED world, FRD body):
 
 - ``/telemetry``, every tick: every number, flag and string of the snapshot (state name, armed, position,
-  attitude, velocities, errors, actuator commands, saturation flags, failsafe, overruns, loop load, ...);
-  an unknown value (NaN) is ``null``, no failsafe is ``""``.
+  attitude, velocities, guidance errors, actuator commands, saturation flags, the nav conditions, actuator
+  and failsafe bits, failsafe, overruns, loop load, ...), under the tick record's names
+  (:class:`onboard.core.record.TickRecord`, as the telemetry CSV); an unknown value (NaN) is ``null``, no
+  failsafe is ``""``.
 - ``/path``, whenever the path the autopilot flies is a new object: its kind, goal index, length, Dubins
   word and the path sampled every ~0.5 m (``x_m``, ``y_m``, ``depth_m``); empty arrays when it flies none.
 - ``/mission``, whenever the mission's goals or fence change: goals (``yaw_rad`` null = free arrival
