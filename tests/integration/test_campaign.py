@@ -297,3 +297,38 @@ def test_the_papers_law_completes_its_straight_and_turn_with_the_shape_of_figs_8
         peak = max(range(len(e_x)), key=lambda i: e_x[i] if t_s[i] - t_s[0] < 20.0 else -math.inf)
         assert e_x[peak] > 2.0 and 3.0 < t_s[peak] - t_s[0] < 20.0
         assert min(e_x[peak:]) < 0.75 * e_x[peak]
+
+
+def test_a_run_on_the_local_bus_is_the_run_on_pythons_virtual_bus(monkeypatch: pytest.MonkeyPatch) -> None:
+    # GIVEN the dodge run (obstacle, cross current) flown on the campaign's bus, python-can-based "local"
+    # (frames handed over without a copy), and again on python-can's own "virtual" bus (a copy per frame)
+    import dataclasses
+
+    from auv_campaign import runner
+
+    spec = parse_spec(SMALL, "<test>").runs[-1]
+    opened: list[str] = []
+    open_bus = runner.open_bus
+
+    def noting_the_bus(*args: Any, **kwargs: Any) -> Any:
+        bus = open_bus(*args, **kwargs)
+        opened.append(type(bus).__name__)
+        return bus
+
+    monkeypatch.setattr(runner, "open_bus", noting_the_bus)
+    local = fly(spec, keep_truth=True)
+    campaign_config = runner.effective_onboard_config
+
+    def on_virtual(sets: tuple[str, ...]) -> Any:
+        cfg = campaign_config(sets)
+        return dataclasses.replace(cfg, bus=dataclasses.replace(cfg.bus, interface="virtual"))
+
+    monkeypatch.setattr(runner, "effective_onboard_config", on_virtual)
+    virtual = fly(spec, keep_truth=True)
+    assert opened == ["LocalBus", "LocalBus", "VirtualBus", "VirtualBus"]
+    # THEN the two runs are the same, row for row and figure for figure (only the wall time differs)
+    assert local.row["planned"] and local.row["ticks"] > 100
+    assert local.truth == virtual.truth and local.reference == virtual.reference
+    assert {k: v for k, v in local.row.items() if k != "wall_time_s"} == {
+        k: v for k, v in virtual.row.items() if k != "wall_time_s"
+    }
