@@ -211,7 +211,7 @@ class CompiledMessage:
             crc = CRC_TABLE[crc ^ byte]
         return (packed | (crc ^ 0xFF) << (8 * CRC_BYTE_INDEX)).to_bytes(FRAME_LENGTH, "little")
 
-    def decode(self, data: bytes, t_rx_s: float) -> tuple[BusMessage, int]:
+    def decode(self, data: bytes | bytearray, t_rx_s: float) -> tuple[BusMessage, int]:
         """The message of an 8-byte frame and its alive counter; raises :class:`FrameError` (``wrong_crc``,
         ``out_of_range``). Its numbers are finite by construction (integer raw values, finite scales)."""
         crc = self.crc_state
@@ -381,7 +381,7 @@ class Codec:
             values[name] = int(value) if isinstance(value, bool | int) else number
         return values
 
-    def decode(self, frame_id: int, data: bytes, t_rx_s: float) -> BusMessage:
+    def decode(self, frame_id: int, data: bytes | bytearray, t_rx_s: float) -> BusMessage:
         """Decode one frame (stateless checks: id, length, CRC, finiteness, DBC range).
 
         ``t_rx_s`` becomes the message's ``t_sample_s``. Raises :class:`FrameError`.
@@ -389,7 +389,9 @@ class Codec:
         msg, _counter = self.decode_with_counter(frame_id, data, t_rx_s)
         return msg
 
-    def decode_with_counter(self, frame_id: int, data: bytes, t_rx_s: float) -> tuple[BusMessage, int]:
+    def decode_with_counter(
+        self, frame_id: int, data: bytes | bytearray, t_rx_s: float
+    ) -> tuple[BusMessage, int]:
         """Like :meth:`decode`, and also return the frame's alive counter."""
         spec = self._by_id.get(frame_id)
         if spec is None:
@@ -508,7 +510,7 @@ class FrameReceiver:
         self._buckets.clear()
 
     def receive(
-        self, frame_id: int, data: bytes, t_rx_s: float, t_bus_s: float | None = None
+        self, frame_id: int, data: bytes | bytearray, t_rx_s: float, t_bus_s: float | None = None
     ) -> BusMessage | None:
         """Return the decoded message, or None if the frame is ignored or rejected (and counted).
 

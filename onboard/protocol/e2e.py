@@ -45,7 +45,7 @@ def data_id_crc_state(frame_id: int) -> int:
     return crc
 
 
-def frame_crc(frame_id: int, payload: bytes) -> int:
+def frame_crc(frame_id: int, payload: bytes | bytearray) -> int:
     """The E2E CRC of a frame: over the data id (2 bytes, little-endian) and payload bytes 0..6."""
     return crc8_sae_j1850(bytes(payload[:CRC_BYTE_INDEX]), data_id_crc_state(frame_id))
 
