@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from auv_common.mission_items import FRAME_LOCAL, LOCAL_SCALE
 from groundstation.mavclient import state_from_heartbeat
 from groundstation.tlog import read_tlog
 
@@ -100,9 +101,9 @@ def plot_mavlink_log(tlog: str | Path, out: str | Path, vehicle_system: int = 1)
     for t, m in read_tlog(tlog):
         packets += 1
         if m.get_srcSystem() != vehicle_system:
-            if m.get_type() == "MISSION_ITEM_INT" and m.frame == 1 and m.mission_type == 0:
-                goals_x.append(m.x / 1e4)
-                goals_y.append(m.y / 1e4)
+            if m.get_type() == "MISSION_ITEM_INT" and m.frame == FRAME_LOCAL and m.mission_type == 0:
+                goals_x.append(m.x / LOCAL_SCALE)
+                goals_y.append(m.y / LOCAL_SCALE)
             continue
         t0 = t if t0 is None else t0
         kind = m.get_type()
@@ -417,7 +418,7 @@ def plot_flight_log(path: str | Path, out: str | Path) -> dict[str, int]:
     # the time plots
     depth = [_num(m.get("depth_m")) for m in tel]
     xtrack = [_num(m.get("cross_track_m")) for m in tel]
-    yaw_err = [math.degrees(_num(m.get("yaw_error_rad"))) for m in tel]
+    yaw_err = [math.degrees(_num(m.get("e_yaw_rad", m.get("yaw_error_rad")))) for m in tel]  # (older logs)
     prop = [_num(m.get("propeller_rps")) for m in tel]
     series[0].plot(t, depth)
     series[0].invert_yaxis()
