@@ -135,7 +135,7 @@ def test_a_receiver_blocked_in_recv_is_woken_by_its_shutdown() -> None:
 
 
 def test_new_acceptance_filters_apply_to_the_next_frame() -> None:
-    # GIVEN a receiver that accepted id 0x40 WHEN its filters change to 0x41 only THEN 0x40 is no longer queued
+    # GIVEN a receiver that accepted id 0x40 WHEN its filters change to 0x41 only THEN 0x40 is not queued
     channel = _channel()
     tx = LocalBus(channel)
     rx = LocalBus(channel, can_filters=[{"can_id": 0x40, "can_mask": 0x7FF, "extended": False}])
