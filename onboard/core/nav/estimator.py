@@ -234,22 +234,6 @@ class NavDebug:
     used_dvl: bool = False
 
 
-# NavCondition bits as plain ints: the step ORs them into an int and builds the IntFlag once.
-_POSITION_MISSING = NavCondition.POSITION_MISSING.value
-_POSITION_STALE = NavCondition.POSITION_STALE.value
-_POSITION_INVALID = NavCondition.POSITION_INVALID.value
-_DVL_MISSING = NavCondition.DVL_MISSING.value
-_DVL_STALE = NavCondition.DVL_STALE.value
-_AHRS_MISSING = NavCondition.AHRS_MISSING.value
-_AHRS_STALE = NavCondition.AHRS_STALE.value
-_DEPTH_MISSING = NavCondition.DEPTH_MISSING.value
-_DEPTH_STALE = NavCondition.DEPTH_STALE.value
-_NAN_INPUT = NavCondition.NAN_INPUT.value
-_FIX_REJECTED = NavCondition.FIX_REJECTED.value
-_FIX_REJECTED_REPEATEDLY = NavCondition.FIX_REJECTED_REPEATEDLY.value
-_NO_CONDITIONS = NavCondition(0)
-
-
 def _horizontal_velocity(dvl: DvlVelocity, ahrs: Ahrs) -> tuple[float, float]:
     """Body velocity (FRD) rotated to NED x and y (m/s), with the ZYX Euler angles."""
     vx, vy, _ = body_to_ned(ahrs.roll_rad, ahrs.pitch_rad, ahrs.yaw_rad, dvl.u_mps, dvl.v_mps, dvl.w_mps)
@@ -296,7 +280,7 @@ def step(
     navigation solution, the new filter state and per-step debug numbers. Never raises on bad
     data: NaN, stale or missing inputs become :class:`NavCondition` flags.
     """
-    conditions = 0  # NavCondition bits as a plain int (IntFlag arithmetic is slow); converted once at the end
+    conditions = NavCondition(0)
     nan_rejected = state.nan_rejected
     dt_s = 0.0 if state.t_s is None else max(0.0, now_s - state.t_s)
 
@@ -310,7 +294,7 @@ def step(
         if isfinite(d.u_mps) and isfinite(d.v_mps) and isfinite(d.w_mps) and isfinite(d.t_sample_s):
             dvl = d
         else:
-            conditions |= _NAN_INPUT
+            conditions |= NavCondition.NAN_INPUT
             nan_rejected += 1
     a = inputs.ahrs
     if a is not None and not a.t_sample_s <= seen_ahrs_t_s:
@@ -326,7 +310,7 @@ def step(
         ):
             ahrs = a
         else:
-            conditions |= _NAN_INPUT
+            conditions |= NavCondition.NAN_INPUT
             nan_rejected += 1
     z = inputs.depth
     if z is not None and not z.t_sample_s <= seen_depth_t_s:
@@ -334,7 +318,7 @@ def step(
         if isfinite(z.depth_m) and isfinite(z.t_sample_s):
             depth = z
         else:
-            conditions |= _NAN_INPUT
+            conditions |= NavCondition.NAN_INPUT
             nan_rejected += 1
 
     dvl_age = _age(now_s, dvl.t_sample_s if dvl else None)
@@ -377,7 +361,7 @@ def step(
         # The fix's own stated accuracy when coarser than the configured one (a sea-grade fix says so).
         r_m2 = max(params.fix_var_m2, fix.std_m * fix.std_m) if isfinite(fix.std_m) else params.fix_var_m2
         if not (isfinite(fix.x_m) and isfinite(fix.y_m) and isfinite(fix.t_sample_s)):
-            conditions |= _NAN_INPUT
+            conditions |= NavCondition.NAN_INPUT
             nan_rejected += 1
         elif fx is None or fy is None:
             p_b = params.initial_bias_var
@@ -399,32 +383,32 @@ def step(
             else:
                 fixes_rejected += 1
                 consecutive += 1
-                conditions |= _FIX_REJECTED
+                conditions |= NavCondition.FIX_REJECTED
                 fix_accepted = False
     if consecutive >= params.max_consecutive_rejections:
-        conditions |= _FIX_REJECTED_REPEATEDLY
+        conditions |= NavCondition.FIX_REJECTED_REPEATEDLY
 
     # 4. Conditions.
     fix_age = _age(now_s, accepted_fix_t_s if isfinite(accepted_fix_t_s) else None)
     if fx is None or fy is None:
-        conditions |= _POSITION_MISSING | _POSITION_INVALID
+        conditions |= NavCondition.POSITION_MISSING | NavCondition.POSITION_INVALID
     else:
         if fix_age > params.fix_timeout_s:
-            conditions |= _POSITION_STALE
+            conditions |= NavCondition.POSITION_STALE
         if fix_age > params.max_dead_reckoning_s:
-            conditions |= _POSITION_INVALID
+            conditions |= NavCondition.POSITION_INVALID
     if dvl is None:
-        conditions |= _DVL_MISSING
+        conditions |= NavCondition.DVL_MISSING
     elif not dvl_fresh:
-        conditions |= _DVL_STALE
+        conditions |= NavCondition.DVL_STALE
     if ahrs is None:
-        conditions |= _AHRS_MISSING
+        conditions |= NavCondition.AHRS_MISSING
     elif not ahrs_fresh:
-        conditions |= _AHRS_STALE
+        conditions |= NavCondition.AHRS_STALE
     if depth is None:
-        conditions |= _DEPTH_MISSING
+        conditions |= NavCondition.DEPTH_MISSING
     elif depth_age > params.stale_after_s:
-        conditions |= _DEPTH_STALE
+        conditions |= NavCondition.DEPTH_STALE
 
     u = dvl.u_mps if dvl else 0.0
     v = dvl.v_mps if dvl else 0.0
@@ -454,7 +438,7 @@ def step(
         velocity_age_s=dvl_age,
         attitude_age_s=ahrs_age,
         depth_age_s=depth_age,
-        conditions=NavCondition(conditions) if conditions else _NO_CONDITIONS,
+        conditions=conditions,
     )
     new_state = NavFilterState(
         t_s=now_s,
