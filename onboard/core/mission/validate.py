@@ -24,6 +24,9 @@ Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is
    i-1's yaw or, when that is None (free), the end yaw of the previous leg's path. Without a previous path
    (no start pose, goal 0 free) the arrival heading at goal 0 is unknown: leg 1 is tried heading straight
    at goal 1 and then every 45 deg, and is feasible if any of them is; a failure reports the straight one.
+   A depth change too steep for a leg's path is flown on a helix (the planner adds full circles of its
+   turning radius), so a leg between goals is refused for its slope only where no circle fits among the
+   obstacles, judged here at upload; leg 0's helix needs the vehicle's pose (at START when not given).
 
 All problems of rules 1 to 4 are reported (not only the first); rule 5 runs only when 1 to 4 pass, and
 planning (rule 6) only when 1 to 5 pass (a plan between refused goals means nothing).

@@ -18,9 +18,11 @@ How a path is chosen:
    shortest path to a point that lies outside both start circles) plus every Dubins word to a 10 deg grid
    of arrival headings (which covers goals inside a start circle); the graph search ends at the goal point.
 5. Depth: a linear profile from start to goal depth along the horizontal path. If the chosen path is too
-   short for the depth change at ``max_depth_slope`` the planner raises ``PlannerError("depth_slope")``
-   rather than silently lengthening the path: the mission layer decides whether to spiral, wait at depth
-   or accept a steeper slope, and the message says how much horizontal length is missing.
+   short for the depth change at ``max_depth_slope``, full circles of the turning radius are added (a
+   helix: the vehicle descends or climbs on a loiter circle) until it is long enough, at the start (after
+   the run-up) or, where the start is blocked, at a later junction towards the goal (:func:`_helix`); each
+   circle is checked against the obstacles like every other segment and keeps off the goal. Only where
+   no circle fits does the planner raise ``PlannerError("depth_slope")``, saying how much path is missing.
 
 Errors: :class:`~onboard.core.planner.errors.PlannerError` with ``reason`` in ``errors.REASONS``.
 Identical start
@@ -39,7 +41,7 @@ from onboard.core.planner.config import PlannerConfig
 from onboard.core.planner.cost import cost_terms
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.geometry import circle_center, circle_cuts, point_inside, segments_collide
-from onboard.core.planner.path import Path, Segment, StraightSegment
+from onboard.core.planner.path import ArcSegment, Path, Segment, StraightSegment
 
 Pose = tuple[float, float, float]
 GoalPose = tuple[float, float, float | None]
@@ -271,6 +273,72 @@ def _best_direct(
     return word, segments, cost
 
 
+#: A helix circle keeps this far (m) from the goal point: the arrival test (within ``[mission]
+#: arrival_radius_m`` of the goal, 0.5 m by default, with its heading) must not fire on the helix, and a
+#: goal's closest approach stays its arrival.
+HELIX_GOAL_CLEARANCE_M = 2.0
+
+
+def _helix_junctions(segments: Sequence[Segment], cfg: PlannerConfig) -> list[int]:
+    """Where helix circles may go, best first: ``j`` = before ``segments[j]`` (0 = at the start pose).
+
+    At the start, so the depth change begins where the vehicle is and the goal's end (its run-in, its
+    arrival heading) is flown as planned; after the run-up when the path has one (steerage first, as for
+    any turn); then every later junction in path order, towards the goal, where the start is blocked.
+    """
+    n = len(segments)
+    first = segments[0] if segments else None
+    if isinstance(first, StraightSegment) and n > 1 and first.length_m <= cfg.start_run_up_m + 1e-9:
+        return [*range(1, n), 0]
+    return list(range(n)) or [0]
+
+
+def _helix(
+    start: Pose,
+    segments: tuple[Segment, ...],
+    dz_m: float,
+    goal_xy: tuple[float, float],
+    cfg: PlannerConfig,
+    inflated: Sequence[tuple[float, float, float]],
+) -> tuple[tuple[Segment, ...], str]:
+    """``segments`` with full circles of the turning radius added where the path is too short for the
+    depth change ``dz_m`` at ``max_depth_slope``, and their count and sense (e.g. ``"2R"``).
+
+    The fewest full circles (each one segment of 2*pi*r: a projection on an arc is taken within one turn)
+    that make the path long enough, all at one junction (:func:`_helix_junctions`), tangent to the path
+    there: the vehicle flies a helix on a loiter circle of its turning radius and the whole leg keeps one
+    linear depth profile, within the slope everywhere. The sense of the neighbouring arc first (the circle
+    is then that arc's own), else either. A circle must not enter an inflated obstacle nor pass within
+    :data:`HELIX_GOAL_CLEARANCE_M` of the goal; where none fits, ``PlannerError("depth_slope")`` says so.
+    """
+    r = cfg.turning_radius_m
+    slope = cfg.max_depth_slope
+    length = sum(s.length_m for s in segments)
+    need = abs(dz_m) / slope
+    lap = 2.0 * math.pi * r
+    turns = max(1, math.ceil((need - length) / lap - 1e-9))
+    n = len(segments)
+    for j in _helix_junctions(segments, cfg):
+        x, y, yaw = segments[j].pose_at(0.0)[:3] if j < n else start
+        near = [
+            s.turn for s in (segments[j : j + 1] + segments[max(j - 1, 0) : j]) if isinstance(s, ArcSegment)
+        ]
+        for turn in dict.fromkeys([*near, 1, -1]):
+            cx, cy = circle_center(x, y, yaw, r, turn)
+            if abs(math.hypot(goal_xy[0] - cx, goal_xy[1] - cy) - r) < HELIX_GOAL_CLEARANCE_M:
+                continue
+            circle = ArcSegment(cx, cy, r, turn, yaw, 2.0 * math.pi)
+            if segments_collide((circle,), inflated):
+                continue
+            return (*segments[:j], *(circle,) * turns, *segments[j:]), f"{turns}{circle.kind}"
+    raise PlannerError(
+        "depth_slope",
+        f"depth change {dz_m:+.2f} m needs {need:.2f} m of path at slope {slope:g}, but the path is "
+        f"{length:.2f} m and no circle of radius {r:g} m fits along it for a helix (each enters an obstacle "
+        f"or passes within {HELIX_GOAL_CLEARANCE_M:g} m of the goal)",
+    )
+
+
 def plan(
     start: Pose,
     goal: GoalPose,
@@ -321,9 +389,9 @@ def plan(
 
 
 #: Refusals a tighter turning radius may lift (smaller turning circles, and obstacles inflated to at least
-#: the radius grow less); a depth slope needs a longer path, which tighter turns never give.
+#: the radius grow less); a depth slope is refused only where no helix circle fits, which a smaller one may.
 TIGHTER_RADIUS_HELPS = frozenset(
-    {"turning_circle_blocked", "unreachable", "start_in_obstacle", "goal_in_obstacle"}
+    {"turning_circle_blocked", "unreachable", "start_in_obstacle", "goal_in_obstacle", "depth_slope"}
 )
 #: Refusals a smaller obstacle margin may lift: a start or goal within the margin. Not a vehicle facing an
 #: obstacle with its turning circles blocked: from rest it runs metres straight before its fins bite
@@ -356,12 +424,9 @@ def _plan(
     length = sum(s.length_m for s in segments)
     dz = goal_depth_m - start_depth_m
     if abs(dz) > cfg.max_depth_slope * length + 1e-9:
-        need = abs(dz) / cfg.max_depth_slope
-        raise PlannerError(
-            "depth_slope",
-            f"depth change {dz:+.2f} m needs {need:.2f} m of path at slope {cfg.max_depth_slope:g}, "
-            f"but the path is {length:.2f} m",
-        )
+        segments, turns = _helix(start, segments, dz, (goal[0], goal[1]), cfg, inflated)
+        word = f"{word}+helix {turns}"
+        cost = cost_terms(segments, cfg).total
     return Path(
         segments=segments,
         start_depth_m=start_depth_m,

@@ -141,18 +141,24 @@ def test_limit_problems_skip_planning() -> None:
 
 
 def test_an_infeasible_leg_names_the_goal_and_the_planner_reason() -> None:
-    m = Mission((g(10, 0, 1), g(12, 0, 15)))  # 14 m of depth in 2 m of path
-    (p,) = check_mission(m, CFG).problems
+    m = Mission((g(10, 0, 1), g(12, 0, 15)))  # 14 m of depth in 2 m of path: a helix (issue 23)
+    assert check_mission(m, CFG).ok
+    # heading north from goal 0 between two rows of obstacles: no helix circle fits, refused at upload
+    fence = tuple(Obstacle(x, y, 1.0) for x in range(0, 24, 2) for y in (-8.0, 8.0))
+    fenced = Mission((g(10, 0, 1, 0), g(12, 0, 15)), fence)
+    (p,) = check_mission(fenced, CFG).problems
     assert (p.item, p.index, p.field) == ("goal", 1, "plan")
-    assert "depth_slope" in p.reason and "from goal 0" in p.reason
+    assert "depth_slope" in p.reason and "from goal 0" in p.reason and "helix" in p.reason
 
 
 def test_leg_zero_is_planned_from_the_start_pose_when_given() -> None:
     m = Mission((g(20, 0, 1, 0), g(40, 0, 2, 0)))
     assert check_mission(m, CFG).ok
     assert check_mission(m, CFG, start_pose=(0.0, 0.0, 0.0, 0.0)).ok
-    # from 15 m deep, 20 m of path cannot climb to 1 m
-    check = check_mission(m, CFG, start_pose=(0.0, 0.0, 15.0, 0.0))
+    # from 15 m deep, 20 m of path cannot climb to 1 m: a helix (issue 23), unless obstacles block it
+    assert check_mission(m, CFG, start_pose=(0.0, 0.0, 15.0, 0.0)).ok
+    fence = tuple(Obstacle(x, y, 1.0) for x in range(-6, 26, 2) for y in (-8.0, 8.0))
+    check = check_mission(Mission(m.goals, fence), CFG, start_pose=(0.0, 0.0, 15.0, 0.0))
     (p,) = check.problems
     assert (p.index, p.field) == (0, "plan") and "the start pose" in p.reason and "depth_slope" in p.reason
     # a start pose inside an (inflated) obstacle

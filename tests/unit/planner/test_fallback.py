@@ -51,11 +51,18 @@ def test_when_the_tighter_radius_fails_too_the_refusal_is_the_planning_radius_on
     assert "(r = 2.93 m) cut inflated obstacle(s) [1, 2]" in str(refused.value)
 
 
-def test_a_depth_slope_is_not_retried() -> None:
-    cfg = dataclasses.replace(WITH_FALLBACK, max_depth_slope=0.01)
+def test_a_helix_that_fits_only_at_the_tighter_radius_is_retried() -> None:
+    # GIVEN 7 m of depth over a 12 m straight between two rows of obstacles 8 m off it (issue 23: a depth
+    # change too steep for the leg is flown on a helix): no 2.93 m circle fits beside it, a 2.5 m one does
+    fence = [(x, y, 1.0) for x in range(-6, 22, 2) for y in (-8.0, 8.0)]
     with pytest.raises(PlannerError) as refused:
-        plan((0.0, 0.0, 0.0), (10.0, 0.0, 0.0), cfg, (), start_depth_m=1.0, goal_depth_m=5.0)
+        plan((0.0, 0.0, 0.0), (12.0, 0.0, 0.0), NOMINAL, fence, start_depth_m=1.0, goal_depth_m=8.0)
     assert refused.value.reason == "depth_slope"
+    path = plan((0.0, 0.0, 0.0), (12.0, 0.0, 0.0), WITH_FALLBACK, fence, start_depth_m=1.0, goal_depth_m=8.0)
+    assert path.word.endswith("+helix 2R")
+    assert path.note.startswith(
+        "planned with the tighter turning radius 2.5 m: at 2.93 m, depth change +7.00 m"
+    )
 
 
 def test_the_validator_judges_goals_with_the_tightest_radius_the_planner_may_use() -> None:

@@ -22,6 +22,12 @@ def _ring(cx: float, cy: float, ring_r: float, n: int, rad: float) -> list[tuple
     ]
 
 
+def _corridor(half_width_m: float) -> list[tuple[float, float, float]]:
+    """Obstacles of 1 m radius every 2 m along y = +-half_width_m from x = -6 to 44 m: beside the straight
+    path from (0, 0) to (40, 0), no circle of 3 m radius fits at 8 m (issue 23's helix)."""
+    return [(float(x), y, 1.0) for x in range(-6, 46, 2) for y in (-half_width_m, half_width_m)]
+
+
 @pytest.mark.parametrize(
     ("kwargs", "reason"),
     [
@@ -37,7 +43,7 @@ def _ring(cx: float, cy: float, ring_r: float, n: int, rad: float) -> list[tuple
         ({"obstacles": [(40.0, 1.0, 1.0)]}, "goal_in_obstacle"),
         ({"obstacles": _ring(40.0, 0.0, 20.0, 40, 2.5)}, "unreachable"),
         ({"obstacles": _ring(0.0, 0.0, 6.0, 8, 2.0)}, "turning_circle_blocked"),
-        ({"goal_depth_m": 50.0}, "depth_slope"),
+        ({"goal_depth_m": 50.0, "obstacles": _corridor(8.0)}, "depth_slope"),  # no helix circle fits
     ],
 )
 def test_each_error_reason(kwargs: dict[str, object], reason: str) -> None:
@@ -176,9 +182,12 @@ def test_free_goal_yaw_with_obstacles() -> None:
 
 
 def test_depth_error_says_why_and_how_much() -> None:
-    with pytest.raises(PlannerError, match=r"needs 200\.00 m") as info:
-        plan((0.0, 0.0, 0.0), (40.0, 0.0, 0.0), CFG, start_depth_m=0.0, goal_depth_m=50.0)
+    # too steep for the path and no helix circle fits beside it (issue 23: where one fits it is flown)
+    with pytest.raises(PlannerError, match=r"needs 200\.00 m .* no circle of radius 3 m fits") as info:
+        plan((0.0, 0.0, 0.0), (40.0, 0.0, 0.0), CFG, _corridor(8.0), start_depth_m=0.0, goal_depth_m=50.0)
     assert info.value.reason == "depth_slope"
+    helix = plan((0.0, 0.0, 0.0), (40.0, 0.0, 0.0), CFG, start_depth_m=0.0, goal_depth_m=50.0)
+    assert helix.length_m >= 200.0 and helix.word.endswith("+helix 9R")
     ok = plan((0.0, 0.0, 0.0), (40.0, 0.0, 0.0), CFG, start_depth_m=0.0, goal_depth_m=10.0)
     assert ok.end_depth_m == 10.0
     assert ok.sample(20.0).depth_m == pytest.approx(5.0)
