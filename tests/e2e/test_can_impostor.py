@@ -30,6 +30,7 @@ from onboard.protocol.bus import BusConfig, open_bus
 from onboard.protocol.codec import Codec, FrameReceiver
 from onboard.protocol.port import BusPort
 from tests.e2e.procs import processes
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.e2e
 
@@ -112,8 +113,12 @@ def test_an_impostor_interleaved_with_the_genuine_depth_sensor_is_a_conflict_not
             open_bus(BusConfig(interface="remote", channel=channel), timeout_s=15.0), time.monotonic
         )
         try:
-            time.sleep(1.0)
-            before = [d.depth_m for d in listen.drain()]
+            before: list[float] = []  # the genuine depth, heard before the attack
+            wait_until(
+                lambda: before.extend(d.depth_m for d in listen.drain()) or len(before) >= 5,
+                20.0,
+                "5 genuine DEPTH frames",
+            )
             # WHEN an impostor sends DEPTH = 25 m at 200 Hz for 2 s, with its own valid counter
             taken: list[tuple[float, float]] = []  # (s since the attack began, depth) of each DEPTH taken
             t0 = time.monotonic()
