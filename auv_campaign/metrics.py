@@ -1,16 +1,23 @@
 """The figures of one run, from the simulator's truth rows (``hil_sim.bench_program.TRUTH_COLUMNS``).
 
-Arrival, final errors and cross-track are :func:`hil_sim.metrics.compute_metrics` (the judge of
-``auv-hil scenario`` too) against the nominal path to the last goal, at the goal-line crossing the vehicle
-claimed when it declared COMPLETE (the last one up to a second after; after a miss and a re-plan the truth
-crosses twice), else at the first crossing. Added here:
+The last goal's arrival, final errors and cross-track are :func:`hil_sim.metrics.compute_metrics` (the
+judge of ``auv-hil scenario`` too) against the nominal path to the last goal, at the goal-line crossing the
+vehicle claimed when it declared COMPLETE (the last one up to a second after; after a miss and a re-plan the
+truth crosses twice), else at the first crossing. Every goal is judged (:func:`judge_goals`, the run JSON's
+``row.goals``): its closest approach, whether the truth crossed its line and the position and course there.
+Added here:
 
-- ``success``: the truth arrived (crossed the last goal's line), the onboard declared COMPLETE, and at the
-  crossing the position error is within ``success.position_m`` and the course over ground within
-  ``success.course_deg`` of the goal's yaw (a free yaw: the path's final heading), and the track never
-  entered an obstacle, and the COMPLETE was no false one;
+- ``success``: every goal reached (its line crossed within ``success.position_m`` and ``success.course_deg``
+  of its yaw; a free yaw: the path's final heading), the last at the crossing the vehicle claimed; the
+  onboard said COMPLETE and was still COMPLETE at the end of the run (after ``observe_after_end_s``), no
+  false COMPLETE, the time limit not reached, the track never inside an obstacle (the whole run, the
+  observation after the end included) and, when the spec gives ``success.cross_track_m``, the max
+  cross-track within it;
+- ``completed``: the vehicle said COMPLETE; ``arrived``: the truth crossed the last goal's line;
 - ``false_complete``: when the onboard first reported COMPLETE, the truth was farther from the last goal than
   the onboard's own ``[mission] arrival_radius_m``;
+- the end (the first COMPLETE, HOLD or ABORT): ``end_state``, ``end_time_s``, ``glide_after_end_m`` (the
+  horizontal distance travelled from then to the end of the run) and ``max_depth_after_end_m``;
 - ``min_clearance_m``: the least distance from the truth to an obstacle's edge (negative: inside);
 - ``control_effort_rad``: the RMS of the rudder and both stern commands over the run;
 - saturation: the fraction of ticks with a fin command at the onboard's ``[control.limits]`` angle, or the
@@ -19,13 +26,14 @@ crosses twice), else at the first crossing. Added here:
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
 from auv_campaign.results import COLUMNS
 from auv_campaign.spec import RunSpec
 from hil_sim.bench_program import TRUTH_COLUMNS
-from hil_sim.metrics import compute_metrics
+from hil_sim.metrics import compute_metrics, goal_crossings
 from onboard.core.control.actuators import ActuatorLimits
 
 _COL = {name: i for i, name in enumerate(TRUTH_COLUMNS)}
@@ -34,6 +42,8 @@ _RUD, _SP, _SS, _PROP = (
     _COL[k] for k in ("rudder_cmd_rad", "stern_port_cmd_rad", "stern_starboard_cmd_rad", "propeller_cmd_rps")
 )
 _STATE, _PITCH = _COL["onboard_state"], _COL["pitch_deg"]
+#: The onboard states that end a mission (the first one is the run's end; it is observed on after it).
+END_STATES = ("COMPLETE", "HOLD", "ABORT")
 COMPLETE_MARGIN_ROWS = 20  # truth rows (1 s at 20 Hz) after the first COMPLETE searched for the crossing
 SATURATION_TOLERANCE = 1e-4  # rad or rev/s below the limit that still counts as "at the limit"
 
@@ -44,11 +54,97 @@ def _finite(value: float) -> float | None:
 
 def base_row(spec: RunSpec) -> dict[str, Any]:
     """A row that knows only the run: its identity, nothing planned, completed or succeeded, every figure
-    None (a run that raised is this row with its ``error``)."""
+    None (a run that raised is this row with its ``error``). ``goals`` (not a CSV column: the run JSON's
+    list of per-goal figures) is empty."""
     row: dict[str, Any] = dict.fromkeys(COLUMNS)
     row.update(spec.identity())
-    row.update(planned=False, completed=False, success=False, false_complete=False, error="")
+    row.update(
+        planned=False, completed=False, arrived=False, success=False, false_complete=False,
+        time_limit_reached=False, goals_reached=0, goals=len(spec.mission.goals), error="",
+    )  # fmt: skip
+    row["goal_figures"] = []
     return row
+
+
+def _closest(rows: list[dict[str, float]], lo: int, hi: int, gx: float, gy: float) -> tuple[float, float]:
+    """The least horizontal distance (m) from rows lo..hi-1 to (gx, gy), and when (s)."""
+    best = min(rows[lo:hi] or rows[-1:], key=lambda r: math.hypot(r["x_m"] - gx, r["y_m"] - gy))
+    return math.hypot(best["x_m"] - gx, best["y_m"] - gy), best["t_s"]
+
+
+def judge_goals(
+    spec: RunSpec,
+    rows: list[dict[str, float]],
+    legs: list[list[list[float]]],
+    last: dict[str, Any],
+) -> list[dict[str, Any]]:
+    """Every goal judged on the truth, in order (one dict each: ``index``, ``closest_m`` and
+    ``closest_t_s`` (the closest approach, horizontal, from the previous goal's crossing to this one's, or
+    to the end), ``arrived`` (its line crossed), ``arrival_t_s``, ``position_error_m``,
+    ``course_error_deg``, ``reached`` (arrived within the spec's position and course bounds)).
+
+    ``legs`` are the planned legs' polylines (``[[x_m, y_m, yaw_deg], ...]``, one per goal). An
+    intermediate goal is judged at its first crossing within the bounds, else its closest crossing (a miss
+    and a second approach cross twice); the next goal is searched from there. The last goal is ``last``
+    (:func:`hil_sim.metrics.compute_metrics` at the crossing the vehicle claimed)."""
+    out: list[dict[str, Any]] = []
+    start = 0
+    goals = spec.mission.goals
+    for i, (gx, gy, _depth, gyaw) in enumerate(goals):
+        if i == len(goals) - 1:
+            arrived = bool(last["completed"])
+            hit: dict[str, Any] | None = (
+                {"row": last["arrival_row"], "t_s": last["arrival_time_s"],
+                 "position_error_m": last["final_position_error_m"],
+                 "course_error_deg": last["final_course_error_deg"]} if arrived else None
+            )  # fmt: skip
+        else:
+            crossings = goal_crossings(rows[start:], legs[i] if i < len(legs) else [], (gx, gy, gyaw))
+            within = [c for c in crossings if _within(spec, c["position_error_m"], c["course_error_deg"])]
+            hit = (within or sorted(crossings, key=lambda c: c["position_error_m"]) or [None])[0]
+            if hit is not None:
+                hit = {**hit, "row": hit["row"] + start}
+            arrived = hit is not None
+        end = hit["row"] + 1 if hit is not None else len(rows)
+        closest_m, closest_t = _closest(rows, start, end, gx, gy)
+        error = None if hit is None else hit["position_error_m"]
+        course = None if hit is None else _finite(hit["course_error_deg"])
+        out.append({
+            "index": i, "closest_m": closest_m, "closest_t_s": closest_t, "arrived": arrived,
+            "arrival_t_s": None if hit is None else hit["t_s"], "position_error_m": error,
+            "course_error_deg": course,
+            "reached": bool(arrived and error is not None and _within(spec, error, course)),
+        })  # fmt: skip
+        if hit is not None:
+            start = hit["row"]
+    return out
+
+
+def _within(spec: RunSpec, error_m: float, course_deg: float | None) -> bool:
+    """Within the spec's success bounds of position (m) and course (deg; nan or None: not judged, fails)."""
+    return (
+        error_m <= spec.success_position_m
+        and course_deg is not None
+        and math.isfinite(course_deg)
+        and abs(course_deg) <= spec.success_course_deg
+    )
+
+
+def end_figures(truth: list[list[Any]]) -> dict[str, Any]:
+    """The end of the mission (the first row in COMPLETE, HOLD or ABORT) and what followed up to the end of
+    the run: ``end_state``, ``end_time_s``, ``glide_after_end_m`` (horizontal path length, m) and
+    ``max_depth_after_end_m``; all None when the run ended before any (e.g. at the time limit)."""
+    at = next((k for k, r in enumerate(truth) if r[_STATE] in END_STATES), None)
+    if at is None:
+        return dict.fromkeys(("end_state", "end_time_s", "glide_after_end_m", "max_depth_after_end_m"))
+    after = truth[at:]
+    glide = sum(math.hypot(b[_X] - a[_X], b[_Y] - a[_Y]) for a, b in itertools.pairwise(after))
+    return {
+        "end_state": truth[at][_STATE],
+        "end_time_s": truth[at][_T],
+        "glide_after_end_m": glide,
+        "max_depth_after_end_m": max(r[_D] for r in after),
+    }
 
 
 def run_row(
@@ -62,10 +158,20 @@ def run_row(
     time_limit_s: float,
     arrival_radius_m: float,
     limits: ActuatorLimits,
+    time_limit_reached: bool = False,
+    legs: list[list[list[float]]] | None = None,
 ) -> dict[str, Any]:
-    """One row of ``runs.csv`` (``results.COLUMNS`` without the timing of the run itself)."""
+    """One row of ``runs.csv`` (``results.COLUMNS`` without the timing of the run itself) and, under
+    ``goal_figures``, the list of :func:`judge_goals` (the run JSON keeps it; the CSV does not).
+
+    ``samples`` is the planned path through every goal; ``legs`` the same per goal (default: one leg, the
+    whole path, for a one-goal mission). ``time_limit_reached``: the run was stopped at its time limit
+    before the vehicle reached an end state."""
     row = base_row(spec)
-    row.update(planned=planned, final_state=final_state, final_reason=final_reason, time_limit_s=time_limit_s)
+    row.update(
+        planned=planned, final_state=final_state, final_reason=final_reason, time_limit_s=time_limit_s,
+        time_limit_reached=time_limit_reached,
+    )  # fmt: skip
     if not truth or not samples:
         return row
     gx, gy, gdepth, gyaw = spec.mission.goals[-1]
@@ -77,7 +183,8 @@ def run_row(
     met = compute_metrics(rows, samples, (gx, gy, gyaw), gdepth, until_row=until)
     course = _finite(met["final_course_error_deg"])
     row.update(
-        completed=met["completed"],
+        completed=complete_at is not None,
+        arrived=met["completed"],
         final_position_error_m=met["final_position_error_m"],
         final_course_error_deg=course,
         final_heading_error_deg=met["final_yaw_error_deg"],
@@ -86,6 +193,11 @@ def run_row(
         rms_cross_track_m=_finite(met["rms_cross_track_m"]),
         time_to_goal_s=met["arrival_time_s"] if met["completed"] else None,
     )
+    goal_figures = judge_goals(spec, rows, legs if legs is not None else [samples], met)
+    row["goal_figures"] = goal_figures
+    row["goals_reached"] = sum(1 for g in goal_figures if g["reached"])
+    row["max_goal_closest_m"] = max(g["closest_m"] for g in goal_figures)
+    row.update(end_figures(truth))
     if spec.mission.obstacles:
         row["min_clearance_m"] = min(
             math.hypot(r[_X] - ox, r[_Y] - oy) - rad for r in truth for ox, oy, rad in spec.mission.obstacles
@@ -107,13 +219,19 @@ def run_row(
         miss_m = math.hypot(first_complete[_X] - gx, first_complete[_Y] - gy)
         row["false_complete"] = miss_m > arrival_radius_m
     clear = row["min_clearance_m"] is None or row["min_clearance_m"] >= 0.0
+    bound = spec.success_cross_track_m
+    on_path = bound is None or (row["max_cross_track_m"] is not None and row["max_cross_track_m"] <= bound)
     row["success"] = bool(
         met["completed"]
+        and row["completed"]
         and final_state == "COMPLETE"
+        and not time_limit_reached
         and not row["false_complete"]
         and met["final_position_error_m"] <= spec.success_position_m
         and course is not None
         and abs(course) <= spec.success_course_deg
+        and row["goals_reached"] == len(goal_figures)
+        and on_path
         and clear
     )
     return row

@@ -8,9 +8,10 @@ A finished run is one JSON file ``OUT/runs/RUN_ID.json``::
 
 :func:`load_runs` reads them back, :func:`write_csv` writes one CSV row a run, :func:`summarize` counts and
 ranks them (success per sweep axis value, error statistics, the ten worst runs by
-:func:`auv_campaign.results.run_cost`), :func:`write_report` draws the HTML page and :func:`write_all` does
-all three. Everything written is JSON-safe (no NaN) and every string from the data is HTML-escaped in the
-page. Matplotlib is imported lazily, with the Agg backend, only by the functions that draw.
+:func:`auv_campaign.results.severity`, uncapped), :func:`write_report` draws the HTML page and
+:func:`write_all` does all three. Everything written is JSON-safe (no NaN) and every string from the data
+is HTML-escaped in the page. Matplotlib is imported lazily, with the Agg backend, only by the functions
+that draw.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from auv_campaign.results import COLUMNS, run_cost
+from auv_campaign.results import COLUMNS, severity
 from auv_campaign.spec import current_label, seed_label
 
 if TYPE_CHECKING:
@@ -44,6 +45,8 @@ METRIC_COLUMNS = (
     "rms_cross_track_m",
     "min_clearance_m",
     "time_to_goal_s",
+    "glide_after_end_m",
+    "max_depth_after_end_m",
 )
 #: How many of the costliest runs the summary and the report show.
 WORST_COUNT = 10
@@ -207,12 +210,15 @@ def summarize(
     in the rows but not listed is appended (sorted) so that no run goes uncounted. ``rerun_command`` gives
     the shell command that re-flies one run (its ``rerun`` entry in ``worst``; ``None`` without it).
 
-    Keys: ``name``, counts ``runs``, ``errors`` (rows with a non-empty error), ``planned``, ``completed``,
-    ``success``, ``false_complete``, ``success_rate`` (0 if no runs); ``per_axis`` {axis: {label: {runs,
+    Keys: ``name``, counts ``runs``, ``errors`` (rows with a non-empty error), ``planned``, ``completed``
+    (the vehicle said COMPLETE), ``arrived`` (the truth crossed the last goal's line), ``success``,
+    ``false_complete``, ``time_limit_reached``, ``penetrated`` (runs inside an obstacle at some time),
+    ``success_rate`` (0 if no runs); ``per_axis`` {axis: {label: {runs,
     success, success_rate, false_complete, median_final_position_error_m, median_max_cross_track_m}}};
     ``metrics`` {column: {median, p90, max}} over the defined values (None if none); ``worst``: the
-    :data:`WORST_COUNT` runs of highest :func:`auv_campaign.results.run_cost` (ties by run id), each
-    {run_id, cost, success, final_state, final_reason, final_position_error_m, rerun}. JSON-safe.
+    :data:`WORST_COUNT` runs of highest :func:`auv_campaign.results.severity` (uncapped: a 55 m miss ranks
+    above a 14 m one; ties by run id), each {run_id, cost (the severity), success, final_state,
+    final_reason, final_position_error_m, rerun}. JSON-safe.
     """
     n = len(rows)
     success = _count(rows, "success")
@@ -235,11 +241,11 @@ def summarize(
             }
             for label, group in groups.items()
         }
-    ranked = sorted(rows, key=lambda row: (-run_cost(row), str(row.get("run_id"))))
+    ranked = sorted(rows, key=lambda row: (-severity(row), str(row.get("run_id"))))
     worst = [
         {
             "run_id": str(row.get("run_id")),
-            "cost": run_cost(row),
+            "cost": severity(row),
             "success": bool(row.get("success")),
             "final_state": row.get("final_state"),
             "final_reason": row.get("final_reason"),
@@ -254,8 +260,13 @@ def summarize(
         "errors": _count(rows, "error"),
         "planned": _count(rows, "planned"),
         "completed": _count(rows, "completed"),
+        "arrived": _count(rows, "arrived"),
         "success": success,
         "false_complete": _count(rows, "false_complete"),
+        "time_limit_reached": _count(rows, "time_limit_reached"),
+        "penetrated": sum(
+            1 for row in rows if (c := _number(row.get("min_clearance_m"))) is not None and c < 0.0
+        ),
         "success_rate": _rate(success, n),
         "per_axis": per_axis,
         "metrics": {column: _stats(_values(rows, column)) for column in METRIC_COLUMNS},
@@ -594,9 +605,12 @@ def write_report(
         ("runs", html_text(n)),
         ("errors (exceptions)", html_text(summary.get("errors"))),
         ("planned", html_text(summary.get("planned"))),
-        ("completed", html_text(summary.get("completed"))),
+        ("completed (the vehicle said COMPLETE)", html_text(summary.get("completed"))),
+        ("arrived (the truth crossed the last goal's line)", html_text(summary.get("arrived"))),
         ("success", html_text(summary.get("success"))),
         ("false complete", html_text(summary.get("false_complete"))),
+        ("time limit reached (still under way)", html_text(summary.get("time_limit_reached"))),
+        ("inside an obstacle at some time", html_text(summary.get("penetrated"))),
         ("success rate", _pct(summary.get("success_rate"), n)),
     ]
     parts += ["<h2>Counts</h2>\n", html_table(("", "count"), counts)]
@@ -650,17 +664,20 @@ def write_report(
     parts += ['<div class="figs">\n', "\n".join(hists), "\n</div>\n"]
 
     worst: list[dict[str, Any]] = list(summary.get("worst") or [])[:WORST_COUNT]
-    parts.append(f"<h2>The {len(worst)} worst runs (highest cost)</h2>\n")
+    parts.append(f"<h2>The {len(worst)} worst runs (highest severity, uncapped)</h2>\n")
     for entry in worst:
         run_id = str(entry.get("run_id"))
         run = by_id.get(run_id)
         row: Row = run["row"] if run is not None else entry
         numbers = [
-            ("cost", html_text(_number(entry.get("cost")))),
+            ("severity", html_text(_number(entry.get("cost")))),
             ("success", html_text(bool(row.get("success")))),
             ("planned", html_text(row.get("planned"))),
             ("completed", html_text(row.get("completed"))),
+            ("arrived", html_text(row.get("arrived"))),
+            ("goals reached", f"{html_text(row.get('goals_reached'))} of {html_text(row.get('goals'))}"),
             ("false complete", html_text(row.get("false_complete"))),
+            ("time limit reached", html_text(row.get("time_limit_reached"))),
             ("final state", html_text(row.get("final_state"))),
             ("final reason", html_text(row.get("final_reason"))),
             ("final position error (m)", html_text(_number(row.get("final_position_error_m")))),
@@ -669,6 +686,9 @@ def write_report(
             ("max cross-track (m)", html_text(_number(row.get("max_cross_track_m")))),
             ("min clearance (m)", html_text(_number(row.get("min_clearance_m")))),
             ("time to goal (s)", html_text(_number(row.get("time_to_goal_s")))),
+            ("end state", html_text(row.get("end_state"))),
+            ("glide after the end (m)", html_text(_number(row.get("glide_after_end_m")))),
+            ("max depth after the end (m)", html_text(_number(row.get("max_depth_after_end_m")))),
         ]
         if row.get("error"):
             numbers.append(("error", html_text(row.get("error"))))

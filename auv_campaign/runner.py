@@ -36,7 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from auv_campaign.metrics import run_row
+from auv_campaign.metrics import END_STATES, run_row
 from auv_campaign.spec import RunSpec
 from hil_sim.bench_program import (
     BENCH_LISTENS,
@@ -64,10 +64,9 @@ from onboard.protocol.bus import open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
-#: Onboard states that end a run (after ``STOP_DELAY_S`` more simulated seconds): nothing changes after
-#: them without an operator (HOLD waits for one).
-STOP_STATES = ("COMPLETE", "ABORT", "HOLD")
-STOP_DELAY_S = 2.0
+#: Onboard states that end a mission (the run goes on the spec's ``observe_after_end_s`` more simulated
+#: seconds: a glide, a sink or a collision after the end shows in its figures).
+STOP_STATES = END_STATES
 #: Simulated seconds the vehicle may take, before moving, to get a valid navigation solution and start.
 START_ALLOWANCE_S = 30.0
 #: Added to the nominal path time (length / planned speed): the start from rest.
@@ -219,9 +218,10 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
             control_rate_hz=cfg.loop.rate_hz,
             sensor_profile=spec.profile,  # type: ignore[arg-type]
             seed=spec.seed,
-            duration_s=limit,
+            # The limit holds until an end state; after one, the run goes on observe_after_end_s (_drive).
+            duration_s=limit + spec.observe_after_end_s,
             stop_on_state=STOP_STATES,
-            stop_delay_s=STOP_DELAY_S,
+            stop_delay_s=spec.observe_after_end_s,
         ),
         initial=InitialConfig(*start),
         current=WaterCurrentConfig(spec.current_speed_mps, spec.current_dir_deg),
@@ -247,21 +247,23 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         if keep_truth:
             _record_reference(autopilot, reference)
         t_drive = time.perf_counter()
-        _drive(bench, autopilot, cfg, hil, truth, result)
+        _drive(bench, autopilot, cfg, hil, truth, result, limit)
         if timings is not None:
             timings["drive_s"] = timings.get("drive_s", 0.0) + time.perf_counter() - t_drive
             timings["ticks"] = timings.get("ticks", 0.0) + result.ticks
     status = autopilot.status
     notes = autopilot.take_notes()
     reason = refused or status.reason
-    if not refused and result.stop_reason.startswith("duration"):
+    time_limit_reached = not refused and result.stop_reason.startswith("duration")
+    if time_limit_reached:
         last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
         reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
     elif not refused and not result.started:
         reason = f"never under way: {status.reason}"
     # Measured against the path the onboard planned first for each leg (it plans from where the vehicle
     # is, which may pick another word than the ideal start), the nominal leg where it planned none.
-    samples = path_samples([first_plans.get(i, leg) for i, leg in enumerate(legs)]) if legs else []
+    flown = [first_plans.get(i, leg) for i, leg in enumerate(legs)]
+    samples = path_samples(flown) if legs else []
     row = run_row(
         spec,
         truth.rows,
@@ -272,6 +274,8 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         time_limit_s=limit,
         arrival_radius_m=cfg.mission.arrival_radius_m,
         limits=cfg.control.limits,
+        time_limit_reached=time_limit_reached,
+        legs=[path_samples([leg]) for leg in flown],
     )
     row["sim_time_s"] = round(bench.state.t_s, 3)
     row["ticks"] = result.ticks
@@ -318,8 +322,17 @@ def _record_reference(autopilot: Autopilot, out: list[tuple[float, float, float,
 
 
 def _drive(
-    bench: Bench, autopilot: Autopilot, cfg: OnboardConfig, hil: HilConfig, truth: _Rows, result: BenchResult
+    bench: Bench,
+    autopilot: Autopilot,
+    cfg: OnboardConfig,
+    hil: HilConfig,
+    truth: _Rows,
+    result: BenchResult,
+    limit_s: float,
 ) -> None:
+    """Fly in lock-step until the bench stops (``observe_after_end_s`` after an end state, its
+    ``stop_delay_s``), the time limit ``limit_s`` comes before any end state (``result.stop_reason``
+    "duration ..."), or the vehicle never gets under way."""
     channel = f"campaign-{os.getpid()}-{next(_channels)}-{uuid.uuid4().hex[:8]}"
     bus = dataclasses.replace(cfg.bus, channel=channel)  # the campaign's [bus]: local
     codec = _codec()
@@ -341,7 +354,8 @@ def _drive(
         loop.plans.lockstep = True
     max_idle_ticks = round(START_ALLOWANCE_S * cfg.loop.rate_hz)
     # A backstop only (the bench stops at the time limit): no run can keep its worker for ever.
-    max_ticks = max_idle_ticks + round((hil.bench.duration_s + STOP_DELAY_S + 1.0) * cfg.loop.rate_hz)
+    max_ticks = max_idle_ticks + round((hil.bench.duration_s + 1.0) * cfg.loop.rate_hz)
+    ended = False
     try:
         while True:
             steps.offer()
@@ -353,6 +367,10 @@ def _drive(
             if not acked:
                 raise RuntimeError(f"the onboard did not answer SYNC {steps.tick}")
             if steps.close_period():
+                return
+            ended = ended or autopilot.status.state.name in STOP_STATES
+            if result.started and not ended and bench.state.t_s >= limit_s - 1e-9:
+                result.stop_reason = f"duration {limit_s:g} s reached"
                 return
             if not result.started and (
                 steps.tick >= max_idle_ticks or autopilot.status.state.name in ("HOLD", "ABORT")

@@ -15,7 +15,8 @@
       onboard: [{}, {control.improved.Kp5: -0.3}]   # onboard --set overrides; default [{}]
       vehicle: [{}, {scale: {fin_lift: 0.7}, set: {fins.area_m2: 0.035}}]   # default [{}]
     time_limit_factor: 2.0            # default 2.0 (x the nominal time of the mission)
-    success: {position_m: 0.3, course_deg: 10}     # defaults 0.3 m and 10 deg
+    observe_after_end_s: 20           # default 20: simulated s the run goes on after COMPLETE, HOLD or ABORT
+    success: {position_m: 0.3, course_deg: 10, cross_track_m: 2}   # defaults 0.3 m, 10 deg, no path bound
 
 At least one of ``missions`` / ``random_missions``. Missions are the listed ones, then the random ones
 (:func:`random_missions`, names r0, r1, ...). The runs are ``itertools.product`` of missions, seeds,
@@ -84,14 +85,23 @@ CAMPAIGN_TABLES = ("bus", "loop", "mavlink")
 #: The sweep axes, outer to inner (the order of the runs and of :attr:`CampaignSpec.axes`).
 AXES = ("mission", "seed", "current", "profile", "onboard", "vehicle")
 
-_TOP_KEYS = ("name", "missions", "random_missions", "sweep", "time_limit_factor", "success")
+_TOP_KEYS = (
+    "name", "missions", "random_missions", "sweep", "time_limit_factor", "observe_after_end_s", "success"
+)  # fmt: skip
 _SWEEP_KEYS = ("seed", "current", "profile", "onboard", "vehicle")
 _MISSION_KEYS = ("name", "start", "goals", "obstacles")
 T = TypeVar("T")
 #: The YAML key of each field a mission validator problem names (``Problem.field``).
 _KEY_OF_FIELD = {"x": "x_m", "y": "y_m", "depth": "depth_m", "yaw": "yaw_deg", "radius": "radius_m"}
 _RANDOM_KEYS = ("count", "seed", "area_m", "obstacles", "radius_m", "depth_m", "goals", "min_distance_m")
-_SUCCESS_KEYS = ("position_m", "course_deg")
+_SUCCESS_KEYS = ("position_m", "course_deg", "cross_track_m")
+#: The default of ``observe_after_end_s`` (simulated s after the end: a glide, a sink, a collision show).
+OBSERVE_AFTER_END_S = 20.0
+#: The most ``observe_after_end_s`` may ask (simulated s).
+MAX_OBSERVE_AFTER_END_S = 600.0
+#: Keys of the vehicle's ``[current]`` table a variant may not set: the mean current is the sweep's
+#: ``current`` axis (the bench takes the mean from it; only the variation comes from the vehicle file).
+_CURRENT_MEAN_KEYS = ("current.north_mps", "current.east_mps", "current.down_mps")
 _VEHICLE_KEYS = ("scale", "set")
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -192,8 +202,10 @@ class RunSpec:
     key, value), in spec order) and ``onboard_label`` ("default" for none, else ``o<index in the axis>``);
     ``vehicle_scale`` ((group, factor), ...) and ``vehicle_set`` ((dotted key, value), ...) the vehicle
     variant, ``vehicle_label`` ("nominal" or ``v<index>``); ``time_limit_factor`` times the mission's
-    nominal time is the run's time limit; a success needs the final position within
-    ``success_position_m`` (m) and the course within ``success_course_deg`` (deg).
+    nominal time is the run's time limit; a success needs every goal's position within
+    ``success_position_m`` (m) and course within ``success_course_deg`` (deg), and the path within
+    ``success_cross_track_m`` (m) of the plan when it is given; the run goes on ``observe_after_end_s``
+    simulated seconds after the end (COMPLETE, HOLD or ABORT).
     """
 
     run_id: str
@@ -210,6 +222,8 @@ class RunSpec:
     time_limit_factor: float
     success_position_m: float
     success_course_deg: float
+    success_cross_track_m: float | None = None
+    observe_after_end_s: float = OBSERVE_AFTER_END_S
 
     def onboard_sets(self) -> list[str]:
         """The overrides as ``auv-onboard run --set`` arguments: ``KEY=VALUE`` with the value in JSON (which
@@ -257,6 +271,8 @@ class RunSpec:
             "time_limit_factor": self.time_limit_factor,
             "success_position_m": self.success_position_m,
             "success_course_deg": self.success_course_deg,
+            "success_cross_track_m": self.success_cross_track_m,
+            "observe_after_end_s": self.observe_after_end_s,
         }
 
     @staticmethod
@@ -277,6 +293,10 @@ class RunSpec:
             time_limit_factor=float(d["time_limit_factor"]),
             success_position_m=float(d["success_position_m"]),
             success_course_deg=float(d["success_course_deg"]),
+            success_cross_track_m=(
+                None if d.get("success_cross_track_m") is None else float(d["success_cross_track_m"])
+            ),
+            observe_after_end_s=float(d.get("observe_after_end_s", OBSERVE_AFTER_END_S)),
         )
 
 
@@ -743,6 +763,14 @@ def _check_vehicle(key: str, scale: dict[str, float], sets: dict[str, Any]) -> N
     """The simulator's parameter loader judges the variant (groups, key paths, types, ranges)."""
     from hil_sim.model.variants import vehicle_params
 
+    for dotted in sets:
+        if dotted in _CURRENT_MEAN_KEYS:
+            raise _Invalid(
+                f"{key}.set.{dotted}",
+                "the mean current is the sweep's current axis ([speed_mps, direction_deg]); a vehicle "
+                "variant may set only its variation (current.variation_std_mps, "
+                "current.variation_time_constant_s)",
+            )
     try:
         vehicle_params(scale, {k: _thaw(v) for k, v in sets.items()}, where=key)
     except ConfigError as exc:
@@ -862,6 +890,16 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     success = _mapping("success", top.get("success"), _SUCCESS_KEYS)
     position_m = _positive("success.position_m", success.get("position_m", 0.3))
     course_deg = _positive("success.course_deg", success.get("course_deg", 10.0))
+    cross_track_m = (
+        None
+        if success.get("cross_track_m") is None
+        else _positive("success.cross_track_m", success["cross_track_m"])
+    )
+    observe_s = _number("observe_after_end_s", top.get("observe_after_end_s", OBSERVE_AFTER_END_S))
+    if not 0.0 <= observe_s <= MAX_OBSERVE_AFTER_END_S:
+        raise _Invalid(
+            "observe_after_end_s", f"must be in [0, {MAX_OBSERVE_AFTER_END_S:g}] s, got {observe_s:g}"
+        )
 
     # The onboard and the simulator judge their own overrides, once per entry.
     for i, (_, pairs) in enumerate(onboards):
@@ -902,6 +940,8 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
                 time_limit_factor=time_limit_factor,
                 success_position_m=position_m,
                 success_course_deg=course_deg,
+                success_cross_track_m=cross_track_m,
+                observe_after_end_s=observe_s,
             )
         )
     ids: set[str] = set()

@@ -370,9 +370,16 @@ class Bench:
     def __init__(self, cfg: HilConfig, params: VehicleParams | None = None) -> None:
         self.cfg = cfg
         params = params or load_params(cfg.bench.params or None)
+        # The mean current is the bench's [current] table; its variation (a seeded first-order
+        # Gauss-Markov process about the mean) the vehicle file's [current] variation_* keys.
         direction = math.radians(cfg.current.direction_deg)
+        variation = params.config.current
         current = CurrentParams(
-            cfg.current.speed_mps * math.cos(direction), cfg.current.speed_mps * math.sin(direction), 0.0
+            cfg.current.speed_mps * math.cos(direction),
+            cfg.current.speed_mps * math.sin(direction),
+            0.0,
+            variation.variation_std_mps,
+            variation.variation_time_constant_s,
         )
         self.setup: SimSetup = make_setup(
             params, cfg.bench.sensor_profile, current, control_period_s=1.0 / cfg.bench.control_rate_hz

@@ -146,3 +146,48 @@ def _course_error_deg(truth: Sequence[Mapping[str, float]], row: int, goal_yaw_r
     if math.hypot(dx, dy) < 1e-6:
         return math.nan
     return math.degrees(wrap_pi(goal_yaw_rad - math.atan2(dy, dx)))
+
+
+def goal_crossings(
+    truth: Sequence[Mapping[str, float]],
+    samples: Sequence[Sequence[float]],
+    goal: tuple[float, float, float | None],
+) -> list[dict[str, Any]]:
+    """Every crossing of the goal line (the rule of :func:`compute_metrics`: along-track reaches the line
+    through the goal, perpendicular to its heading, while the nearest path segment is near the path's end),
+    in order: ``row`` (the first row past the line), the interpolated ``t_s``, ``x_m``, ``y_m``,
+    ``position_error_m`` and the ``course_error_deg`` over that row's period (nan when still).
+
+    An intermediate goal is judged at any of them (a miss, a re-plan and a second approach cross twice),
+    the last goal at the one the vehicle claimed (:func:`compute_metrics` ``until_row``)."""
+    if not truth:
+        return []
+    poly = _Polyline(samples)
+    gx, gy, gyaw_deg = goal
+    if gyaw_deg is None:
+        gyaw_deg = float(samples[-1][2]) if samples and len(samples[-1]) > 2 else 0.0
+    gyaw = math.radians(gyaw_deg)
+    ux, uy = math.cos(gyaw), math.sin(gyaw)
+    near_end = max(poly.count - 1, 0)
+    idx = 0
+    out: list[dict[str, Any]] = []
+    prev: Mapping[str, float] | None = None
+    prev_along = -math.inf
+    was_past = False
+    for k, row in enumerate(truth):
+        along_goal = (row["x_m"] - gx) * ux + (row["y_m"] - gy) * uy
+        _, idx = poly.nearest(row["x_m"], row["y_m"], idx - WINDOW_BACK, idx + WINDOW_AHEAD)
+        past = idx >= near_end - WINDOW_BACK and along_goal >= 0.0
+        if past and not was_past:
+            x, y, t = row["x_m"], row["y_m"], row["t_s"]
+            if prev is not None and prev_along < 0.0 <= along_goal:
+                w = -prev_along / (along_goal - prev_along)
+                x, y = prev["x_m"] + w * (x - prev["x_m"]), prev["y_m"] + w * (y - prev["y_m"])
+                t = prev["t_s"] + w * (t - prev["t_s"])
+            out.append({
+                "row": k, "t_s": t, "x_m": x, "y_m": y, "position_error_m": math.hypot(gx - x, gy - y),
+                "course_error_deg": _course_error_deg(truth, k, gyaw),
+            })  # fmt: skip
+        was_past = past
+        prev, prev_along = row, along_goal
+    return out

@@ -73,7 +73,8 @@ def test_campaign_run_and_process_scenario_end_within_1_mm_and_0_1_deg(tmp_path:
     spec = parse_spec(
         {"name": "turn", "missions": [{"name": "turn",
          "start": {"x_m": sc.start[0], "y_m": sc.start[1], "depth_m": 1, "yaw_deg": sc.start[2]},
-         "goals": [{"x_m": sc.goal[0], "y_m": sc.goal[1], "depth_m": 1, "yaw_deg": sc.goal[2]}]}]},
+         "goals": [{"x_m": sc.goal[0], "y_m": sc.goal[1], "depth_m": 1, "yaw_deg": sc.goal[2]}]}],
+         "observe_after_end_s": 2},  # the scenario's --stop-delay: the same length of truth
         "turn.yaml",
     )  # fmt: skip
     run = fly(spec.runs[0], keep_truth=True)

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from auv_campaign import report
-from auv_campaign.results import COLUMNS, run_cost
+from auv_campaign.results import COLUMNS, severity
 
 AXES: dict[str, list[str]] = {
     "mission": ["m0", "r0"],
@@ -281,9 +281,10 @@ def test_worst_ordered_by_cost_at_most_ten(runs: list[dict[str, Any]]) -> None:
     assert len(worst) == report.WORST_COUNT
     costs = [w["cost"] for w in worst]
     assert costs == sorted(costs, reverse=True)
-    assert costs[0] == pytest.approx(max(run_cost(r) for r in rows))
-    # The error and the not-planned runs cost the most (20), ties in run-id order.
-    assert [w["run_id"] for w in worst[:2]] == sorted(r["run_id"] for r in rows if run_cost(r) == 20.0)
+    # Ranked by the uncapped severity (issue 23: the capped cost tied a 55 m miss with a 14 m one).
+    assert costs[0] == pytest.approx(max(severity(r) for r in rows))
+    ranked = sorted(rows, key=lambda r: (-severity(r), r["run_id"]))[: report.WORST_COUNT]
+    assert [w["run_id"] for w in worst] == [r["run_id"] for r in ranked]
     assert worst[0]["rerun"] == rerun(worst[0]["run_id"])
     assert set(worst[0]) == {
         "run_id",

@@ -434,7 +434,15 @@ def _with(path: str, value: Any) -> dict[str, Any]:
     return data
 
 
-DELETE = object()
+class _Delete:
+    """The key is removed. Its repr is stable: the test ids are the same in every process (pytest-xdist
+    compares the workers' collections)."""
+
+    def __repr__(self) -> str:
+        return "DELETE"
+
+
+DELETE = _Delete()
 START = "missions/0/start"
 GOAL = "missions/0/goals/0"
 
@@ -442,7 +450,8 @@ BAD: list[tuple[str, Any, str]] = [
     (
         "bogus",
         1,
-        "bogus: unknown key (known: missions, name, random_missions, success, sweep, time_limit_factor)",
+        "bogus: unknown key (known: missions, name, observe_after_end_s, random_missions, success, sweep, "
+        "time_limit_factor)",
     ),
     ("name", DELETE, "name: missing"),
     ("name", "has space", "name: expected a name"),
@@ -557,7 +566,7 @@ BAD: list[tuple[str, Any, str]] = [
     ("time_limit_factor", "2", "time_limit_factor: expected a number"),
     ("success/position_m", -0.1, "success.position_m: must be > 0"),
     ("success/course_deg", None, "success.course_deg: expected a number"),
-    ("success/bogus", 1, "success.bogus: unknown key (known: course_deg, position_m)"),
+    ("success/bogus", 1, "success.bogus: unknown key (known: course_deg, cross_track_m, position_m)"),
     ("random_missions", [1], "random_missions: expected a mapping"),
     ("random_missions", {"count": 2, "seed": 1}, "random_missions.area_m: missing"),
     ("random_missions", {"count": 0, "seed": 1, "area_m": 9}, "random_missions.count: must be >= 1"),
