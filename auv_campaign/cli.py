@@ -187,7 +187,8 @@ def _campaign(prog: str, spec: Any, out: Path, args: argparse.Namespace) -> int:
         rate = summary["success_rate"]
         print(
             f"{spec.name}: {summary['success']} of {summary['runs']} runs succeeded ({100 * rate:.1f} %), "
-            f"{summary['false_complete']} false COMPLETE, {summary['errors']} errors, "
+            f"{summary['false_complete']} false COMPLETE, {summary['time_limit_reached']} at the time limit, "
+            f"{summary['errors']} errors, "
             f"{summary['wall_time_s']:.1f} s on {executor.describe()}"
         )
         print(f"report: {out / 'report.html'}")

@@ -101,9 +101,8 @@ def judge_goals(
         else:
             crossings = goal_crossings(rows[start:], legs[i] if i < len(legs) else [], (gx, gy, gyaw))
             within = [c for c in crossings if _within(spec, c["position_error_m"], c["course_error_deg"])]
-            hit = (within or sorted(crossings, key=lambda c: c["position_error_m"]) or [None])[0]
-            if hit is not None:
-                hit = {**hit, "row": hit["row"] + start}
+            best = within or sorted(crossings, key=lambda c: c["position_error_m"])
+            hit = {**best[0], "row": best[0]["row"] + start} if best else None
             arrived = hit is not None
         end = hit["row"] + 1 if hit is not None else len(rows)
         closest_m, closest_t = _closest(rows, start, end, gx, gy)
