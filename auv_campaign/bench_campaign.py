@@ -58,6 +58,7 @@ def mission_runs(seeds: Sequence[int]) -> tuple[RunSpec, ...]:
         "missions": [{"name": "line", "start": dict(zip(pose, START, strict=True)),
                       "goals": [dict(zip(pose, GOAL, strict=True))]}],
         "sweep": {"seed": list(seeds)},
+        "observe_after_end_s": 2,  # as the scenario's --stop-delay: the same mission, timings comparable
     }  # fmt: skip
     return parse_spec(data, "<auv_campaign.bench>").runs
 
