@@ -32,12 +32,27 @@ optional first-order low-pass ``derivative_tau_s``; ``rates`` = the same for e_x
 de_psi/dt = r_d - r, de_theta/dt = q_d - q and de_z/dt = depth_rate_d - depth_rate from the measured rates
 (no differentiation noise). The first step and dt_s = 0 give derivative 0 (first step) or hold the last one.
 
-Profile ``improved`` adds: the propeller feed-forward rps_ff = speed_map(U_d) (linear interpolation in
-``[control]``'s ``speed_map_mps`` / ``speed_map_rps`` table, the vehicle's; a ``paper`` profile with
-``feedforward = true`` takes it too, and no curvature rudder), the yaw-rate feed-forward on arcs
-dR_ff = -rudder_per_curvature_radm * r_d / U_d (= -K * curvature: the steady-turn rudder), and roll damping
-with the split stern: roll differential = roll_kp * phi + roll_kd * p (a positive differential rolls to
-port, see :mod:`onboard.core.control.actuators`).
+The propeller's operating point (eq. 7, our reading): eq. 7, the surge row of the dynamics, balances the
+vehicle's drag at its state with the thrust a_x + b_x u_T + c_x u_T^2 + d_x u_T^3 of the "forward movement
+ratio u_T (its mean forward velocity)". Eq. 8 as written gives zero thrust at zero error, so a vehicle on
+the reference would slow down and could never hold it (``auv-hil scenario paper-turn`` circled, closest
+14.9 m; the straight ended 0.30 m off). We read eq. 7 as the propeller held at the speed of the reference,
+u_T = U_d, with eqs. 8-10 correcting around it: rps = speed_map(U_d) + eq. 8 (``feedforward``, on in both
+profiles; the speed map is ``[control]``'s ``speed_map_mps`` / ``speed_map_rps``, the vehicle's steady speed
+through the water, linear interpolation). With it the paper's straight ends 0.09 m off and its turn 0.21 m
+(paper 0.13 / 0.2 m).
+
+Profile ``improved`` adds: the yaw-rate feed-forward on arcs dR_ff = -rudder_per_curvature_radm * r_d / U_d
+(= -K * curvature: the steady-turn rudder), roll damping with the split stern: roll differential =
+roll_kp * phi + roll_kd * p (a positive differential rolls to port, see
+:mod:`onboard.core.control.actuators`), and integral action in eq. 8 while the reference stands still
+(waits at the goal): + Ki1 * integral(e_x dt), clamped to +-``Ki1_max_rps`` and frozen while the propeller
+is saturated in the error's direction (anti-windup). The
+speed map's feed-forward is only as good as the current estimate, and along a constant heading the estimate
+cannot tell a head current from a slow vehicle: in a 1.5 m/s head current (top speed ~1.85 m/s) the
+proportional eq. 8 parked the vehicle 4.0 m short of the goal at 24.4 rps once the reference waited there;
+the integral supplies the missing thrust. The memory (``ControllerState``) starts afresh on every new path
+and every state that stops the PD (:mod:`onboard.core.pipeline`), so nothing winds up across legs.
 
 Pure: ``step(nav, reference, state, params, dt_s) -> (command, new_state, debug)``. Saturation and rate limits
 happen in :func:`onboard.core.control.actuators.saturate` only. Any NaN -> neutral command with ``NAN_INPUT``.
@@ -94,6 +109,21 @@ class PdGains:
     Kp8: float = _gain("PD_KP8", "rad/rad", "PD stern P gain on e_theta")
     KD8: float = _gain("PD_KD8", "rad.s/rad", "PD stern D gain on e_theta")
     feedforward: bool = False
+    # Integral action on eq. 8's along-track error (the speed loop), with anti-windup: the term is clamped to
+    # +-Ki1_max_rps and integrates only while the propeller command is within its limits or the error unwinds
+    # it; the pipeline resets it (with the rest of the memory) on every new path and every state change.
+    Ki1: float = param(
+        0.0, unit="rps/(m.s)", min=0.0, operator=(0.0, 10.0), mavlink="PD_KI1",
+        desc="PD rps integral gain on e_x (0 = off)",
+    )  # fmt: skip
+    Ki1_max_rps: float = param(
+        10.0, unit="rps", min=0.0, operator=(0.0, 100.0), mavlink="PD_KI1_MAX",
+        desc="the most propeller speed the e_x integral may hold",
+    )  # fmt: skip
+    Ki1_closing_mps: float = param(
+        0.3, unit="m/s", min=0.0, operator=(0.0, 2.0), mavlink="PD_KI1_CLOSE",
+        desc="the e_x integral acts while the vehicle closes on a waiting reference slower than this",
+    )  # fmt: skip
     rudder_per_curvature_radm: float = param(
         0.0, unit="rad.m", min=0.0, operator=(0.0, 10.0), mavlink="PD_RUD_FF_RADM",
         desc="rudder feed-forward per path curvature",
@@ -133,8 +163,11 @@ class PdGains:
 @dataclass(frozen=True)
 class PaperGains(PdGains):
     """``[control.paper]``: the paper's structure and gains |Kp| = 2, |KD| = 4 (section 5), each sign the one
-    that stabilises its channel (module docstring); no feed-forward, derivatives by differences."""
+    that stabilises its channel (module docstring), derivatives by differences, and the propeller held at the
+    reference speed u_T (the speed map; our reading of eq. 7, module docstring): eqs. 8-10 correct around it.
+    No curvature rudder, no integral, no roll damping, no fin schedule."""
 
+    feedforward: bool = True
     Kp1: float = 2.0
     KD1: float = 4.0
     Kp3: float = 2.0
@@ -165,6 +198,7 @@ class ImprovedGains(PdGains):
     Kp8: float = -1.0
     KD8: float = -0.5
     feedforward: bool = True
+    Ki1: float = 0.2
     # PLACEHOLDER: steady-turn rudder per curvature, rad*m (e.g. 2/3 of the rudder limit * r_min).
     rudder_per_curvature_radm: float = 1.0
     roll_kp: float = 0.3
@@ -228,6 +262,8 @@ class ControllerState:
     errors: tuple[float, float, float, float, float] | None = None  # e_x, e_y, e_z, e_psi, e_theta
     derivatives: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
     depth_int_rad: float = 0.0  # the depth cascade's integral, as pitch (rad)
+    speed_int_rps: float = 0.0  # eq. 8's integral of e_x, as propeller speed (rev/s)
+    s_ref_m: float | None = None  # the reference point's arc length at the last step (is it waiting?)
     command: ActuatorCommand = field(default_factory=lambda: ActuatorCommand(0.0, 0.0, 0.0, 0.0))
 
 
@@ -242,6 +278,7 @@ class ControlDebug:
     derivatives: tuple[float, float, float, float, float]
     terms: dict[str, float]
     rps_ff: float
+    rps_int: float
     rudder_ff_rad: float
     roll_diff_rad: float
     raw: ActuatorCommand
@@ -270,6 +307,44 @@ def _depth_cascade(
         imax = math.radians(g.depth_int_max_deg)
         integ = min(max(integ + g.Kiz_pitch * ez * dt_s, -imax), imax)
     return p7, d7, g.Kp8 * (theta_cmd - nav.pitch_rad), -g.KD8 * nav.q_radps, integ
+
+
+def _stalled(g: PdGains, nav: NavState, reference: GuidanceReference, state: ControllerState) -> bool:
+    """True when a proportional eq. 8 would leave the vehicle short for ever: the reference stands still (its
+    arc length unchanged since the last step: it waits at the goal) and the vehicle closes on it, over ground
+    along the path, slower than ``Ki1_closing_mps``. A vehicle closing faster needs no help (the packaged
+    runs arrive at 1.2-1.3 m/s): the integral leaves every arrival the proportional loop makes unchanged."""
+    if state.s_ref_m is None or reference.s_ref_m != state.s_ref_m:
+        return False
+    ux, uy = reference.x_rate_mps, reference.y_rate_mps
+    norm = math.hypot(ux, uy)
+    vn, ve, _ = nav.velocity_ned_mps
+    if not (norm > 1e-6 and math.isfinite(vn) and math.isfinite(ve)):
+        return False
+    along_mps = (vn * ux + ve * uy) / norm
+    closing_mps = along_mps if reference.e_along_m >= 0.0 else -along_mps
+    return closing_mps < g.Ki1_closing_mps
+
+
+def _speed_integral(
+    g: PdGains, limits: ActuatorLimits, ex: float, rps: float, integ: float, dt_s: float
+) -> float:
+    """Eq. 8's integral term after ``dt_s`` of a reference standing still: + Ki1 e_x dt_s, within
+    +-Ki1_max_rps, and only while the propeller command ``rps`` (with the term) is within its limits or
+    ``e_x`` drives it back inside (conditional integration: a saturated propeller does not wind it up).
+
+    Why: once the reference waits at the goal, a proportional eq. 8 against a head current settles where
+    Kp1 e_x makes up the thrust the feed-forward lacks, metres short of the goal for ever; the integral
+    removes that offset. The caller integrates only while the reference stands still: while it moves, its
+    motion and the feed-forward carry the speed, and an integral of the start's lag only sped the vehicle
+    into the goal (paper campaign, always integrating: final error median 0.018 -> 0.072 m)."""
+    if not (math.isfinite(ex) and math.isfinite(rps) and math.isfinite(dt_s) and dt_s > 0.0):
+        return integ
+    high = rps >= limits.propeller_max_rps and ex > 0.0
+    low = rps <= limits.propeller_min_rps and ex < 0.0
+    if high or low:
+        return integ
+    return min(max(integ + g.Ki1 * ex * dt_s, -g.Ki1_max_rps), g.Ki1_max_rps)
 
 
 def step(
@@ -343,16 +418,24 @@ def step(
         rps_ff = params.speed_to_rps(speed)
         kappa = reference.yaw_rate_radps / speed if speed > 1e-6 else reference.curvature_1pm
         rudder_ff = -g.rudder_per_curvature_radm * kappa  # right turn (kappa > 0) = negative rudder
+    speed_int = state.speed_int_rps
+    if g.Ki1 > 0.0 and _stalled(g, nav, reference, state):
+        speed_int = _speed_integral(g, params.limits, ex, rps + rps_ff + speed_int, speed_int, dt_s)
     roll_diff = g.roll_kp * nav.roll_rad + g.roll_kd * nav.p_radps if (g.roll_kp or g.roll_kd) else 0.0
 
     port, stbd = stern_split(stern, roll_diff)
-    raw = ActuatorCommand(rudder + rudder_ff, port, stbd, rps + rps_ff)
+    raw = ActuatorCommand(rudder + rudder_ff, port, stbd, rps + rps_ff + speed_int)
     command = saturate(raw, state.command, params.limits, dt_s)
     if command.flags & ActuatorFlag.NAN_INPUT:
         new_state = ControllerState(errors=None, command=command)
     else:
         new_state = ControllerState(
-            errors=e, derivatives=derivatives, depth_int_rad=depth_int, command=command
+            errors=e,
+            derivatives=derivatives,
+            depth_int_rad=depth_int,
+            speed_int_rps=speed_int,
+            s_ref_m=reference.s_ref_m,
+            command=command,
         )
     terms = {
         "P1": p1, "D1": d1, "P2": p2, "D2": d2, "P3": p3, "D3": d3, "P4": p4, "D4": d4,
@@ -363,6 +446,7 @@ def step(
         derivatives=derivatives,
         terms=terms,
         rps_ff=rps_ff,
+        rps_int=speed_int,
         rudder_ff_rad=rudder_ff,
         roll_diff_rad=roll_diff,
         raw=raw,

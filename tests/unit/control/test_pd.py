@@ -77,7 +77,7 @@ def test_p_and_d_terms_match_eqs_8_to_10(params: ControlParams) -> None:
     params = dataclasses.replace(
         params,
         paper=dataclasses.replace(params.paper, derivative="difference"),
-        improved=dataclasses.replace(params.improved, derivative="difference", feedforward=False),
+        improved=dataclasses.replace(params.improved, derivative="difference", feedforward=False, Ki1=0.0),
     )
     g = params.gains
     e1 = dict(e_along_m=0.1, e_cross_m=0.2, e_depth_m=0.05, e_yaw_rad=0.01, e_pitch_rad=0.02)
@@ -111,7 +111,9 @@ def test_paper_profile_gains_have_the_paper_magnitudes() -> None:
         kp, kd = getattr(g, f"Kp{i}"), getattr(g, f"KD{i}")
         assert abs(kp) in (0.0, 2.0) and abs(kd) in (0.0, 4.0)
         assert (kp == 0.0) == (kd == 0.0)
-    assert not g.feedforward
+    # and the propeller held at the reference speed (eq. 7's u_T), nothing else of the improved profile
+    assert g.feedforward and g.rudder_per_curvature_radm == 0.0 and g.Ki1 == 0.0
+    assert (g.roll_kp, g.roll_kd, g.schedule_speed_mps, g.depth_mode) == (0.0, 0.0, 0.0, "paper")
 
 
 def test_yaw_difference_is_wrapped() -> None:
@@ -174,9 +176,104 @@ def test_improved_feedforward_speed_map_and_curvature() -> None:
     # THEN the propeller gets the speed map's 25 rps and the rudder the steady-turn (negative = right)
     assert dbg.rps_ff == pytest.approx(25.0)
     assert dbg.rudder_ff_rad == pytest.approx(-ImprovedGains().rudder_per_curvature_radm * 0.2)
-    # and the paper profile has neither (zero error = zero thrust, as in the paper)
+    # and the paper profile holds the propeller at the reference speed (eq. 7's u_T), with no curvature rudder
     _, _, dbg_p = step(NAV, r, ControllerState(), PAPER, DT)
-    assert dbg_p.rps_ff == 0.0 and dbg_p.raw.propeller_rps == 0.0
+    assert dbg_p.rps_ff == pytest.approx(25.0) and dbg_p.raw.propeller_rps == pytest.approx(25.0)
+    assert dbg_p.rudder_ff_rad == 0.0 and dbg_p.raw.rudder_rad == 0.0
+
+
+def test_paper_profile_as_written_gives_zero_thrust_at_zero_error() -> None:
+    # GIVEN the paper profile without the speed map (eqs. 8-10 as written)
+    as_written = ControlParams(profile="paper", paper=PaperGains(feedforward=False))
+    # WHEN the vehicle is on a reference moving at 1.6 m/s  THEN the propeller gets nothing
+    _, _, dbg = step(NAV, ref(speed_mps=1.6), ControllerState(), as_written, DT)
+    assert dbg.rps_ff == 0.0 and dbg.raw.propeller_rps == 0.0
+
+
+def waiting(e_along_m: float, speed_mps: float, s_ref_m: float = 0.0) -> GuidanceReference:
+    """A reference along +x at ``speed_mps``, standing at ``s_ref_m``, ``e_along_m`` ahead of the vehicle."""
+    return ref(e_along_m=e_along_m, speed_mps=speed_mps, x_rate_mps=speed_mps, s_ref_m=s_ref_m)
+
+
+def _hold_e_x(params: ControlParams, e_along_m: float, seconds: float, speed_mps: float = 1.0) -> list[float]:
+    """The propeller commands of ``seconds`` of a steady along-track error (the reference waiting ahead)."""
+    s, out = ControllerState(), []
+    for _ in range(round(seconds / DT)):
+        _, s, dbg = step(NAV, waiting(e_along_m, speed_mps), s, params, DT)
+        out.append(dbg.raw.propeller_rps)
+    return out
+
+
+def test_speed_integral_grows_a_steady_along_track_error_into_thrust() -> None:
+    # GIVEN the improved profile and a vehicle held 2 m behind a reference waiting at the goal
+    g = IMPROVED.improved
+    raw = _hold_e_x(IMPROVED, 2.0, 10.0)
+    # THEN the command grows by Ki1 * e_x per second on top of the proportional part (no parking short)
+    assert raw[-1] - raw[0] == pytest.approx(g.Ki1 * 2.0 * (len(raw) - 1) * DT, rel=1e-6)
+    # and the paper profile (a PD) has no integral: the command stays
+    flat = _hold_e_x(PAPER, 2.0, 10.0)
+    assert flat[-1] == pytest.approx(flat[1])
+
+
+def test_speed_integral_acts_only_while_the_reference_stands_still() -> None:
+    # GIVEN the improved profile and a vehicle 2 m behind a reference that moves on (s_ref advancing)
+    s = ControllerState()
+    for k in range(200):
+        _, s, dbg = step(NAV, waiting(2.0, 1.0, s_ref_m=k * DT), s, IMPROVED, DT)
+    # THEN no integral: the moving reference and the feed-forward carry the speed
+    assert s.speed_int_rps == 0.0 and dbg.rps_int == 0.0
+    # WHEN the reference stops (waits at the goal)  THEN the integral acts from the next step on
+    _, s, _ = step(NAV, waiting(2.0, 1.0, s_ref_m=10.0), s, IMPROVED, DT)
+    _, s, _ = step(NAV, waiting(2.0, 1.0, s_ref_m=10.0), s, IMPROVED, DT)
+    assert s.speed_int_rps == pytest.approx(IMPROVED.improved.Ki1 * 2.0 * DT)
+
+
+def test_speed_integral_leaves_a_vehicle_closing_on_the_goal_alone() -> None:
+    # GIVEN a reference waiting 2 m ahead and a vehicle closing on it at 1 m/s over ground (an arrival the
+    # proportional loop makes)
+    closing = nav_state_at(u_mps=1.0)
+    s = ControllerState()
+    for _ in range(40):
+        _, s, _ = step(closing, waiting(2.0, 1.0), s, IMPROVED, DT)
+    # THEN no integral; at rest (stalled short of it) the integral acts
+    assert s.speed_int_rps == 0.0
+    for _ in range(2):
+        _, s, _ = step(NAV, waiting(2.0, 1.0), s, IMPROVED, DT)
+    assert s.speed_int_rps > 0.0
+
+
+def test_speed_integral_is_clamped() -> None:
+    # GIVEN a small error held for long, below the propeller limit
+    params = ControlParams(improved=ImprovedGains(Ki1=1.0, Ki1_max_rps=3.0))
+    raw = _hold_e_x(params, 0.5, 30.0, speed_mps=0.5)
+    # THEN the integral holds at most Ki1_max_rps (the command settles 3 rps above P + feed-forward)
+    p_ff = params.speed_to_rps(0.5) + params.improved.Kp1 * 0.5
+    assert raw[-1] == pytest.approx(p_ff + 3.0)
+
+
+def test_speed_integral_does_not_wind_up_while_the_propeller_is_saturated() -> None:
+    # GIVEN a large error that saturates the propeller (30 rps) from the start, for a long time
+    s = ControllerState()
+    for _ in range(round(20.0 / DT)):
+        _, s, _ = step(NAV, waiting(10.0, 1.5), s, IMPROVED, DT)
+    # THEN the integral did not grow (conditional integration)
+    assert s.speed_int_rps == 0.0
+    # and with an integral held, saturated high, a negative error unwinds it (the command comes back inside)
+    held = ControllerState(speed_int_rps=5.0, s_ref_m=0.0)
+    _, s1, _ = step(NAV, waiting(10.0, 1.5), held, IMPROVED, DT)
+    _, s2, _ = step(NAV, waiting(-0.5, 2.0), held, IMPROVED, DT)
+    assert s1.speed_int_rps == 5.0
+    assert s2.speed_int_rps == pytest.approx(5.0 - IMPROVED.improved.Ki1 * 0.5 * DT)
+
+
+def test_speed_integral_starts_afresh_with_the_memory() -> None:
+    # GIVEN a wound integral  WHEN the controller state is replaced (new path, HOLD: the pipeline's reset)
+    s = ControllerState()
+    for _ in range(40):
+        _, s, _ = step(NAV, waiting(2.0, 1.0), s, IMPROVED, DT)
+    assert s.speed_int_rps > 0.0
+    # THEN the fresh state holds no integral
+    assert ControllerState(command=s.command).speed_int_rps == 0.0
 
 
 @pytest.mark.parametrize(("speed", "rps"), [(0.0, 0.0), (0.8, 12.5), (1.6, 25.0), (-1.0, 0.0), (3.2, 50.0)])
