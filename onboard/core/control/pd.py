@@ -111,13 +111,15 @@ class PdGains:
     feedforward: bool = False
     # Integral action on eq. 8's along-track error (the speed loop), with anti-windup: the term is clamped to
     # +-Ki1_max_rps and integrates only while the propeller command is within its limits or the error unwinds
-    # it; the pipeline resets it (with the rest of the memory) on every new path and every state change.
+    # it; the pipeline resets it (with the rest of the memory) on every new path and every state change. The
+    # clamp is the propeller's range: the feed-forward may be short by most of it (an estimate reading no
+    # current in 1.5 m/s: 16 rps given, 24 needed, more on a slow run-in).
     Ki1: float = param(
         0.0, unit="rps/(m.s)", min=0.0, operator=(0.0, 10.0), mavlink="PD_KI1",
         desc="PD rps integral gain on e_x (0 = off)",
     )  # fmt: skip
     Ki1_max_rps: float = param(
-        10.0, unit="rps", min=0.0, operator=(0.0, 100.0), mavlink="PD_KI1_MAX",
+        30.0, unit="rps", min=0.0, operator=(0.0, 100.0), mavlink="PD_KI1_MAX",
         desc="the most propeller speed the e_x integral may hold",
     )  # fmt: skip
     Ki1_closing_mps: float = param(
