@@ -36,6 +36,9 @@ GROUPS: dict[str, tuple[str, ...]] = {
         "tests/e2e/test_can_impostor.py",
         "tests/integration/mavlink/test_peer_isolation.py",
     ),
+    # One flight and one browser for the module (module-scoped fixtures): its tests on one worker, not a
+    # flight per worker.
+    "map_browser": ("tests/e2e/test_map_browser.py",),
     # A Ray cluster each: Ray's own ports (the dashboard agent's, the client server's) are fixed.
     "ray": (
         "tests/integration/test_campaign.py::test_same_results_with_one_worker_two_workers_and_ray",

@@ -51,11 +51,21 @@ def start_vehicle(procs: list[subprocess.Popen[Any]], log: Any, bench: list[str]
     procs.append(subprocess.Popen(onboard, stdout=log, stderr=subprocess.STDOUT))
 
 
-def upload_arm_start(url: str, tlogs: Path, mission: Path) -> None:
-    """What an operator does step by step with ``auv-gcs``: upload, wait-ready, arm, start; each accepted."""
+def upload_arm_start(url: str, tlogs: Path, mission: Path, boot_timeout_s: float = 60.0) -> None:
+    """What an operator does step by step with ``auv-gcs``: upload, wait-ready, arm, start; each accepted.
+    The upload is asked again while the vehicle says its control loop is not running yet (it boots: on a
+    loaded machine that takes a while), until ``boot_timeout_s``."""
+    import time
+
     from hil_sim.scenario import run_gcs
 
-    code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
+    deadline = time.monotonic() + boot_timeout_s
+    while True:
+        code, data = run_gcs(url, tlogs, "upload", str(mission), timeout_s=20.0)
+        booting = code != 0 and "control loop is not running" in str(data.get("reason", ""))
+        if not booting or time.monotonic() > deadline:
+            break
+        time.sleep(0.5)
     assert code == 0 and data["ok"], data
     code, data = run_gcs(url, tlogs, "wait-ready", "--timeout", "20", timeout_s=20.0)
     assert code == 0 and data["ready"], data

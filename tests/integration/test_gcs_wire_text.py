@@ -220,7 +220,7 @@ def test_fly_shows_a_strangers_markup_as_text_flies_on_and_holds(
         feed_until_shown(run, gcs_port, vehicle_port)
         assert run.proc.poll() is None, run.raw[-3000:]  # THEN fly flies on
         run.proc.send_signal(signal.SIGINT)  # and the operator's Ctrl-C still holds the vehicle
-        code = run.finish(30.0)
+        code = run.finish(60.0)
     finally:
         run.stop()
     out = run.raw
@@ -239,7 +239,7 @@ def test_monitor_on_a_terminal_shows_the_texts_as_text(
         feed_until_shown(run, gcs_port, vehicle_port)
         assert run.proc.poll() is None, run.raw[-3000:]
         run.proc.send_signal(signal.SIGINT)
-        code = run.finish(30.0)
+        code = run.finish(60.0)
     finally:
         run.stop()
     assert_text_only(run.raw, tty=True)
@@ -314,7 +314,7 @@ def test_map_page_gets_the_texts_without_control_characters(
         stop.set()
         collector.join(5.0)
         run.proc.send_signal(signal.SIGTERM)
-        code = run.finish(30.0)
+        code = run.finish(60.0)
     assert code == 0, run.raw
     assert_text_only(run.raw, tty=False)
     assert not [t for t in texts if re.search(r"[\x00-\x1f\x7f-\x9f]", t)], texts
