@@ -146,7 +146,7 @@ def test_ctrl_c_keeps_finished_runs_and_the_same_command_resumes(tmp_path: Path)
         while len(list((out / "runs").glob("*.json"))) < 2 and time.monotonic() < deadline:
             time.sleep(0.05)
         proc.send_signal(signal.SIGINT)
-        _stdout, stderr = proc.communicate(timeout=60)
+        _stdout, stderr = proc.communicate(timeout=180)  # the run under way ends first: a loaded machine
     finally:
         if proc.poll() is None:
             proc.kill()
