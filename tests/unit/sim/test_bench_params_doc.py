@@ -28,6 +28,7 @@ def test_the_committed_bench_parameter_page_is_the_generated_one() -> None:
     )
 
 
+@pytest.mark.integration  # a process of its own: not make check's unit tier
 def test_the_generator_prints_the_page() -> None:
     run = subprocess.run(
         [sys.executable, "-m", "hil_sim.params_doc"], capture_output=True, text=True, check=True, timeout=120
