@@ -216,6 +216,10 @@ def attrs_of(params: list[Param], sampler: str = "tpe", seed: int = 0, runs: str
     return {"params": [p.to_dict() for p in params], "train_runs": runs, "sampler": sampler, "seed": seed}
 
 
+#: An optuna study in a SQLite file: the integration tier (tests/conftest.py), not make check's unit tier.
+STUDY = pytest.mark.integration
+
+
 def new_study(
     tmp_path: Path,
     params: list[Param] = [KP5, KD5],  # noqa: B006
@@ -233,6 +237,7 @@ def new_study(
     return tune.open_study(storage, "t", attrs_of(params, seed=seed), sampler)
 
 
+@STUDY
 def test_run_trials_baseline_first_then_rounded_samples(tmp_path: Path) -> None:
     study = new_study(tmp_path)
     seen: list[int] = []
@@ -250,6 +255,7 @@ def test_run_trials_baseline_first_then_rounded_samples(tmp_path: Path) -> None:
     assert best.user_attrs["success_rate"] == 1.0 and best.user_attrs["runs"] == 3
 
 
+@STUDY
 def test_run_trials_resumes_to_the_total_without_a_second_baseline(tmp_path: Path) -> None:
     tune.run_trials(new_study(tmp_path), [KP5, KD5], toy, 3)
     again = new_study(tmp_path)  # the same storage: loaded
@@ -261,6 +267,7 @@ def test_run_trials_resumes_to_the_total_without_a_second_baseline(tmp_path: Pat
     assert len(again.trials) == 5
 
 
+@STUDY
 def test_open_study_refuses_other_params_or_runs(tmp_path: Path) -> None:
     new_study(tmp_path)
     with pytest.raises(ParamError, match="other parameters or ranges"):
@@ -281,6 +288,7 @@ def test_open_study_refuses_other_params_or_runs(tmp_path: Path) -> None:
         ("tpe", 7, "was made with --seed 0, not 7: give --seed 0 or another --out"),
     ],
 )
+@STUDY
 def test_open_study_refuses_another_sampler_or_seed(
     tmp_path: Path, sampler: str, seed: int, words: str
 ) -> None:
@@ -295,6 +303,7 @@ def test_open_study_refuses_another_sampler_or_seed(
     assert (stored["sampler"], stored["seed"]) == ("tpe", 0)  # in the study, unchanged
 
 
+@STUDY
 def test_open_study_adopts_the_sampler_and_seed_of_an_older_study(tmp_path: Path) -> None:
     # a study made before tune stored them: taken as given, then kept
     storage = f"sqlite:///{tmp_path / 'study.db'}"
@@ -305,6 +314,7 @@ def test_open_study_adopts_the_sampler_and_seed_of_an_older_study(tmp_path: Path
     assert (study.user_attrs["sampler"], study.user_attrs["seed"]) == ("tpe", 3)
 
 
+@STUDY
 def test_a_resumed_study_draws_new_points(tmp_path: Path) -> None:
     # GIVEN a study whose random start-up (10 trials for --trials 40) is under way: baseline + 2 draws
     seeds: list[int] = []
@@ -326,6 +336,7 @@ def test_a_resumed_study_draws_new_points(tmp_path: Path) -> None:
     assert [tune.trial_values(t) for t in other.trials[1:3]] == first
 
 
+@STUDY
 def test_run_trials_stops_after_the_current_trial(tmp_path: Path) -> None:
     study = new_study(tmp_path)
     stop = tune._StopFlag()
@@ -341,6 +352,7 @@ def test_run_trials_stops_after_the_current_trial(tmp_path: Path) -> None:
         stop.handler(2, None)  # the second Ctrl-C: now
 
 
+@STUDY
 def test_run_trials_keyboard_interrupt_fails_the_trial(tmp_path: Path) -> None:
     study = new_study(tmp_path)
 
@@ -354,6 +366,7 @@ def test_run_trials_keyboard_interrupt_fails_the_trial(tmp_path: Path) -> None:
     assert set(tune.trial_values(study.trials[2])) == {KP5.key, KD5.key}  # what it was about to fly
 
 
+@STUDY
 def test_run_trials_baseline_is_retried_if_it_never_finished(tmp_path: Path) -> None:
     study = new_study(tmp_path)
 
@@ -397,6 +410,7 @@ def doc_of(
     return tune.build_doc(spec, held, study, params, args, holdout, False, tmp_path)  # type: ignore[arg-type]
 
 
+@STUDY
 def test_outputs_tell_train_and_held_out_of_baseline_and_best(tmp_path: Path) -> None:
     study = new_study(tmp_path)
     tune.run_trials(study, [KP5, KD5], toy, 6)
@@ -444,6 +458,7 @@ def test_outputs_tell_train_and_held_out_of_baseline_and_best(tmp_path: Path) ->
     assert "the same missions (the spec lists them all), so other noise only" in page
 
 
+@STUDY
 def test_outputs_without_a_finished_trial(tmp_path: Path) -> None:
     study = new_study(tmp_path)
     doc = doc_of(study, [KP5], {}, tmp_path)
@@ -453,6 +468,7 @@ def test_outputs_without_a_finished_trial(tmp_path: Path) -> None:
     assert (tmp_path / "tune.html").exists() and (tmp_path / "trials.csv").read_text().startswith("number,")
 
 
+@STUDY
 def test_summary_lines_name_the_files(tmp_path: Path) -> None:
     study = new_study(tmp_path)
     tune.run_trials(study, [KP5, KD5], toy, 2)
@@ -564,6 +580,7 @@ def test_trial_check_judges_the_values_with_every_runs_overrides() -> None:
     )
 
 
+@STUDY
 def test_run_trials_prunes_refused_combinations_and_goes_on(tmp_path: Path) -> None:
     study = new_study(tmp_path, AREA)
     check = tune.trial_check(parse_spec(SPEC, "t.yaml").runs, tune.onboard_accepts)
@@ -595,6 +612,7 @@ def test_run_trials_prunes_refused_combinations_and_goes_on(tmp_path: Path) -> N
     assert "refused by the onboard, not flown" in (tmp_path / "tune.html").read_text()
 
 
+@STUDY
 def test_run_trials_gives_up_after_too_many_refusals_in_a_row(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -685,6 +703,7 @@ def spec_file(tmp_path: Path) -> Path:
 AREA_PARAMS = "failsafe.area_x_min_m=-10:10,failsafe.area_x_max_m=-9:11"
 
 
+@STUDY
 def test_tune_main_prunes_refused_combinations_and_counts_them(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
 ) -> None:
@@ -699,6 +718,7 @@ def test_tune_main_prunes_refused_combinations_and_counts_them(
     assert doc["best"]["train_errors"] == 0
 
 
+@STUDY
 def test_tune_main_resumes_only_with_the_same_sampler_and_seed(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
 ) -> None:
@@ -728,6 +748,7 @@ def test_tune_main_resumes_only_with_the_same_sampler_and_seed(
     assert len(study.trials) == 4 and (study.user_attrs["sampler"], study.user_attrs["seed"]) == ("tpe", 0)
 
 
+@STUDY
 def test_tune_main_refuses_another_sampler_on_resume(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_execute: FakeExecute
 ) -> None:

@@ -133,6 +133,7 @@ def test_plot_file_written(tmp_path: FsPath, capsys: pytest.CaptureFixture[str])
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.integration  # a process of its own
 def test_runs_as_module() -> None:
     proc = subprocess.run(
         [
