@@ -4,8 +4,10 @@
 on the mission state alone (which event is allowed where and what to do instead, what changes nothing, that
 a mission has goals, that a goal index is in range, which states are live) is asked of the state table,
 :mod:`onboard.core.mission.state`, as a dry run; the judge adds only what the state cannot know (navigation
-valid, the CAN bus, the actuator node's failsafe: :func:`readiness`, the one place it is checked) and the
-commands that are not state events (a mission, a parameter, a mode, a lost link or bus). :func:`apply` is the
+valid, the CAN bus, the actuator node's failsafe: :func:`readiness`, the one place it is checked; at START
+and RESUME the goal's feasibility against the estimated current,
+:func:`onboard.core.executive.monitors.feasibility`) and the commands that are not state events (a
+mission, a parameter, a mode, a lost link or bus). :func:`apply` is the
 one place a transition is carried out: the state changes, the operator is told, the executive learns it.
 """
 
@@ -16,6 +18,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from onboard.core import commands as c
+from onboard.core.executive.monitors import feasibility
 from onboard.core.mission.model import Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, Transition, goal_problem, no_op, transition
 from onboard.core.mission.validate import check_limits
@@ -151,6 +154,11 @@ def _start(ap: Autopilot, first_goal: int | None, src: str) -> c.Verdict:
     ok, why = readiness(ap)
     if not ok:
         return c.not_now(why)
+    index = dry.status.goal_index  # a goal the vehicle cannot make good against the current: not now
+    if ap.last_nav is not None and 0 <= index < len(ap.mission.goals):
+        why = feasibility(ap.config, ap.last_nav, ap.mission.goals[index], index)
+        if why:
+            return c.not_now(why)
     return _event(ap, event, src, goal_index=first_goal)
 
 

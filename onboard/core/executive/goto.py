@@ -12,7 +12,10 @@ It owns, for the goal in force (``status.goal_index``):
 - re-plans on current: a path planned for one current (``[planner] current_aware``) is planned again when
   the estimate has moved by :data:`REPLAN_CURRENT_CHANGE_MPS` (the start's estimate is a guess until the
   vehicle turns), with a note; if that plan fails the path flown stays;
-- progress: ``goals_reached`` since the mission (re)started (MISSION_ITEM_REACHED) and ``attempt``.
+- progress: ``goals_reached`` since the mission (re)started (MISSION_ITEM_REACHED) and ``attempt``;
+- the leg monitors (:mod:`~onboard.core.executive.monitors`): along-track progress, cross-track, ETA and
+  feasibility against the current; one that fires ends the leg with ``[mission] monitor_action`` (HOLD or
+  ABORT) and the figure in the reason.
 
 After the last goal the state table makes the mission COMPLETE and the executive hands over to the end
 action (:mod:`~onboard.core.executive.loiter` or :mod:`~onboard.core.executive.surface`).
@@ -22,11 +25,12 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from onboard.core.commands import Severity
 from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.executive.monitors import LegMonitor
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.nav.types import NavState
 from onboard.core.plans import current_radius_m
@@ -50,20 +54,24 @@ class Goto:
     kind = "goal"
     goals_reached: int = 0
     attempt: int = 1
+    monitor: LegMonitor = field(default_factory=LegMonitor)
 
     def reset(self) -> None:
         """A new mission: nothing reached yet."""
         self.goals_reached = 0
         self.attempt = 1
+        self.monitor.reset()
 
     def start(self, ex: Executive, v: Vehicle) -> None:
         self.attempt = 1
+        self.monitor.reset()  # the legs are watched afresh from where the vehicle is
         ex.drop_path()
         ex.ask_plan(v, "goal")  # afresh, from where the vehicle is
 
     def goal_set(self, ex: Executive) -> None:
         """The operator made another goal the current one: a first try at it, planned when next flown."""
         self.attempt = 1
+        self.monitor.reset()
         ex.drop_path()
 
     def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
@@ -78,6 +86,23 @@ class Goto:
             self.arrived(ex, v, nav)
         if v.status.state is not MissionState.RUNNING or ex.path is None:
             return None  # reached (COMPLETE, or the next goal's plan is asked for), missed, or held
+        why = self.monitor.check(
+            v.config,
+            nav,
+            v.mission.goals[index],
+            (index, self.attempt),
+            ex.path,
+            ex.guidance_state.s_proj_m,
+            leg.reference.cross_track_m,
+            v.now_s,
+        )
+        if why:  # the leg cannot be flown: the configured action, the figure named
+            log.warning("%s", why)
+            if v.config.mission.monitor_action == "abort":
+                v.apply(MissionEvent.ABORT, why)
+            else:
+                v.apply(MissionEvent.HOLD, why, severity=Severity.WARNING)
+            return None
         if self._current_changed(ex, v, nav):
             ex.ask_plan(v, "goal", replan=True)
         return leg

@@ -1,4 +1,4 @@
-"""The ``[mission]`` table: arrival, misses, the end of a mission, mission capacities, planning deadline."""
+"""The ``[mission]`` table: arrival, misses, the end, capacities, planning deadline, the leg monitors."""
 
 from __future__ import annotations
 
@@ -8,6 +8,8 @@ from typing import Literal
 from auv_common.config import check_declared, param, require
 
 EndAction = Literal["surface", "loiter"]
+#: What a monitor that ends a leg does (``monitor_action``): HOLD (the operator decides) or ABORT (surface).
+MonitorAction = Literal["hold", "abort"]
 
 #: The smallest arrival radius that means one, m: the navigation estimate is good to decimetres (a fix's
 #: sigma is 0.3 m), so a radius below 0.1 m turns every arrival into a miss.
@@ -28,6 +30,14 @@ class MissionParams:
     if the estimate is within it of the goal, else it is a miss, re-planned until ``max_tries``, then HOLD.
     After the last goal, ``end_action``: ``surface`` (propeller 0 and fins neutral at once, the positively
     buoyant vehicle floats up; disarmed) or ``loiter`` (circle the last goal at its depth; armed).
+
+    The leg monitors (:mod:`onboard.core.executive.monitors`): less progress (along the path, or back
+    onto it) than ``progress_min_mps`` over ``monitor_window_s``; off the path by more than
+    ``cross_track_max_m`` (+ ``cross_track_sigmas`` x the position's 1-sigma) for the window; a goal that
+    takes ``eta_factor`` x its expected time; a goal the vehicle makes good slower than
+    ``min_made_good_mps`` against the estimated current for the window. Each ends the leg with
+    ``monitor_action``: ``hold`` (HOLD, the operator decides) or ``abort`` (ABORT). At START and RESUME
+    such a goal is refused (not now) with the figures.
     """
 
     arrival_radius_m: float = param(
@@ -50,6 +60,39 @@ class MissionParams:
         2.0, unit="s", min=0.05, max=60.0,
         desc="a plan (in the planning worker) that takes longer is a refusal with a reason",
     )  # fmt: skip
+    # The leg monitors and the feasibility check (onboard/core/executive/monitors.py; DUNE's PathController).
+    # Defaults generous enough that no mission of the repo's campaign specs that completes is stopped: they
+    # catch the missions that cannot be flown (campaign hil_sim/campaigns/strong_current_monitors.yaml).
+    monitor_action: MonitorAction = "hold"
+    monitor_window_s: float = param(
+        60.0, unit="s", min=5.0, max=600.0, mavlink="MIS_MON_WIN_S",
+        desc="leg monitors' window: progress measured over it; off the path or unable to make good "
+        "the goal this long ends the leg",
+    )  # fmt: skip
+    progress_min_mps: float = param(
+        0.1, unit="m/s", min=0.0, max=2.0, mavlink="MIS_PROG_MPS",
+        desc="least progress (along the path flown, or back onto it) over the monitors' window, as a speed "
+        "(0 = off)",
+    )  # fmt: skip
+    cross_track_max_m: float = param(
+        15.0, unit="m", min=0.0, max=1000.0, mavlink="MIS_XTRACK_M",
+        desc="off the path flown farther than this (plus cross_track_sigmas x the position's 1 sigma) "
+        "for the window ends the leg (0 = off)",
+    )  # fmt: skip
+    cross_track_sigmas: float = param(
+        3.0, min=0.0, max=10.0,
+        desc="the cross-track bound widens by this many 1-sigma of the position estimate",
+    )  # fmt: skip
+    eta_factor: float = param(
+        4.0, min=0.0, max=100.0, mavlink="MIS_ETA_FACTOR",
+        desc="a goal that takes longer than this x its expected time (all its tries) ends the leg "
+        "(0 = off; else >= 1)",
+    )  # fmt: skip
+    min_made_good_mps: float = param(
+        0.25, unit="m/s", min=0.0, max=2.0, mavlink="MIS_MG_MIN_MPS",
+        desc="a goal the vehicle makes good slower than this against the estimated current is refused "
+        "at START and ends the leg while RUNNING (0 = off)",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         check_declared(self)
@@ -57,3 +100,8 @@ class MissionParams:
             self.end_action in ("surface", "loiter"),
             f"end_action must be surface or loiter, got {self.end_action!r}",
         )
+        require(
+            self.monitor_action in ("hold", "abort"),
+            f"monitor_action must be hold or abort, got {self.monitor_action!r}",
+        )
+        require(self.eta_factor == 0.0 or self.eta_factor >= 1.0, "eta_factor must be 0 (off) or >= 1")
