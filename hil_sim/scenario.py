@@ -181,8 +181,13 @@ class RunOptions:
 
 def _profile_sets(opts: RunOptions) -> tuple[str, ...]:
     """Onboard overrides: the paper profile flies the paper's guidance too (reference-point errors, a
-    reference moving at uniform speed from the first instant); then the caller's own ``--set`` values."""
-    faithful = ('guidance.lateral="reference"', "guidance.reference_accel_mps2=0.0")
+    reference moving at uniform speed from the first instant to the goal: no slow run-in); then the caller's
+    own ``--set`` values."""
+    faithful = (
+        'guidance.lateral="reference"',
+        "guidance.reference_accel_mps2=0.0",
+        "mission.arrival_speed_mps=0.0",
+    )
     return (faithful if opts.controller == "paper" else ()) + opts.onboard_sets
 
 

@@ -73,7 +73,8 @@ class Autopilot:
     def actuators_live(self) -> bool:
         """True exactly when the actuators may move under the vehicle's own command (the state table's
         rule, :func:`~onboard.core.mission.state.actuators_live`)."""
-        return actuators_live(self.status.state, self.executive.loitering(self))
+        ex = self.executive
+        return actuators_live(self.status.state, ex.loitering(self) or ex.stop.braking)
 
     @property
     def ready(self) -> tuple[bool, str]:

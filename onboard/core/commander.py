@@ -185,8 +185,9 @@ def _set_mode(ap: Autopilot, command: c.SetMode) -> c.Verdict:
         return c.denied(f"{state.name}: hold or abort to leave the mission")
     if state is MissionState.ABORT:
         return c.denied("ABORT: disarm to acknowledge it")
-    if ap.actuators_live:  # COMPLETE, loitering: the propeller turns, "ready" would be a lie
-        return c.denied(f"{state.name} (loitering): disarm to stop")
+    if ap.actuators_live:  # COMPLETE, loitering or still braking: the propeller turns, "ready" would be a lie
+        doing = "braking to a stop" if ap.executive.stop.braking else "loitering"
+        return c.denied(f"{state.name} ({doing}): disarm to stop")
     return c.accepted(f"ready ({state.name}): nothing to change")
 
 

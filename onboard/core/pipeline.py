@@ -9,11 +9,14 @@ failsafe, an arrival) go to the one place transitions happen, :func:`onboard.cor
 
 Truth rule kept here: whenever the actuators are not live (:func:`onboard.core.mission.state.actuators_live`)
 the propeller command is 0 rps in the same tick (no ramp-down); after the last goal the end action runs
-(``surface``: propeller 0 and fins neutral at once; ``loiter``: the circle), nothing drives on past the goal.
+(``surface``: the stop brakes, propeller in reverse and stern planes nose up, until the vehicle is still,
+then propeller 0 and fins neutral; ``loiter``: the circle), nothing drives on past the goal; HOLD brakes
+the same way (:mod:`onboard.core.executive.surface`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -23,6 +26,7 @@ from onboard.core import control, nav
 from onboard.core.bus_inputs import actuator_failsafe, nav_inputs
 from onboard.core.control.actuators import NEUTRAL, ActuatorCommand, saturate
 from onboard.core.control.pd import ControlDebug
+from onboard.core.executive.surface import run_in_rps
 from onboard.core.guidance.guidance import GuidanceDebug, GuidanceReference
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.record import TickRecord
@@ -65,17 +69,31 @@ class Pipeline:
         command = NEUTRAL
         if leg is not None:
             reference, guidance_debug = leg.reference, leg.debug
+            previous_rps = self.controller_state.command.propeller_rps
             command, self.controller_state, control_debug = control.step(
                 nav_state, reference, self.controller_state, cfg.control, dt_s
             )
+            # the run-in to the last goal (its speed limit binding): faster than that, the propeller reverses
+            braking_rps = (
+                run_in_rps(nav_state, reference, cfg, previous_rps, dt_s) if leg.debug.run_in else None
+            )
+            if braking_rps is not None:
+                command = dataclasses.replace(command, propeller_rps=braking_rps)
+                self.controller_state = dataclasses.replace(self.controller_state, command=command)
         # 5. the state's output
         state = ap.status.state  # arrival may have completed the mission or held it
+        stop = None  # COMPLETE (surface) and HOLD: the stop brakes first (the executive's Stop)
+        if reference is None and state in (MissionState.COMPLETE, MissionState.HOLD):
+            stop = ap.executive.stop.command(nav_state, cfg, self.controller_state.command, dt_s)
         live = ap.actuators_live
         if state is MissionState.ABORT:
             command = saturate(
                 failsafe.abort_command(cfg.failsafe), self.controller_state.command, cfg.control.limits, dt_s
             )
             command = _propeller_off(command)
+            self.controller_state = control.ControllerState(command=command)
+        elif stop is not None:
+            command = stop
             self.controller_state = control.ControllerState(command=command)
         elif state is MissionState.COMPLETE and not (live and reference is not None):
             command = NEUTRAL  # surface: propeller 0 and fins neutral at once

@@ -249,11 +249,18 @@ def stretches(rows: list[dict[str, Any]], states: set[str]) -> list[list[dict[st
 
 def assert_disarmed_means_still(rows: list[dict[str, Any]], heartbeats: list[Any]) -> None:
     """Every truth row in a state a SAFETY_ARMED-clear heartbeat reported has 0 rps (bar each stretch's
-    first tick); and no heartbeat reports a moving state without SAFETY_ARMED."""
+    first tick, and in COMPLETE the surface end action's brake: armed, before it); and no heartbeat reports
+    a moving state without SAFETY_ARMED."""
     disarmed = {state_from_heartbeat(hb) for hb in heartbeats if not armed(hb)}
     assert not disarmed & set(DISARMED_STATES_MAY_MOVE), f"disarmed heartbeats in {disarmed}"
     for run in stretches(rows, disarmed):
-        moving = [r for r in run[1:] if r["propeller_cmd_rps"] != 0.0]
+        tail = run[1:]
+        if run[0]["state"] == "COMPLETE":  # the surface end action brakes first, armed (issue 23): from its
+            # end on (the first 0 rps) it is still; before that the propeller only reverses
+            k = next((i for i, r in enumerate(tail) if r["propeller_cmd_rps"] == 0.0), len(tail))
+            assert all(r["propeller_cmd_rps"] < 0.0 for r in tail[:k]), "COMPLETE: forward, not braking"
+            tail = tail[k:]
+        moving = [r for r in tail if r["propeller_cmd_rps"] != 0.0]
         assert not moving, (
             f"heartbeat said disarmed in {run[0]['state']}, but the propeller was commanded "
             f"{moving[0]['propeller_cmd_rps']} rps at t = {moving[0]['t_s']} s"
@@ -290,12 +297,14 @@ def test_every_answer_is_the_truth(tmp_path: Path) -> None:
     )
     idle = stretches(rows[first_stop:], {"IDLE"})[0]
     assert all(r["propeller_cmd_rps"] == 0.0 for r in idle[1:]), "propeller commanded after the forced disarm"
-    # AND after COMPLETE the propeller command is 0 within one tick and stays 0; nothing re-arms it until
-    # the operator's ARM (the fence upload in between did not)
+    # AND after COMPLETE the propeller never drives forward: within one tick it is 0 or reversing (the
+    # surface end action brakes: issue 23; before, 0 at once), then 0 for good once stopped; nothing
+    # re-arms it until the operator's ARM (the fence upload in between did not)
     c = next(i for i, r in enumerate(rows) if r["state"] == "COMPLETE")
-    assert 0.0 in (rows[c]["propeller_cmd_rps"], rows[c + 1]["propeller_cmd_rps"]), rows[c : c + 2]
+    assert min(rows[c]["propeller_cmd_rps"], rows[c + 1]["propeller_cmd_rps"]) <= 0.0, rows[c : c + 2]
     after = stretches(rows[c:], {"COMPLETE"})[0]
-    assert all(r["propeller_cmd_rps"] == 0.0 for r in after[1:]), "propeller commanded in COMPLETE"
+    assert all(r["propeller_cmd_rps"] <= 0.0 for r in after[1:]), "propeller driving forward in COMPLETE"
+    assert after[-1]["propeller_cmd_rps"] == 0.0, "still braking when the operator armed"
     assert len(after) > 5, "COMPLETE did not last until the operator's ARM"
     # AND every heartbeat with SAFETY_ARMED clear coincides with 0 rps
     assert_disarmed_means_still(rows, heartbeats)
@@ -362,10 +371,16 @@ def _complete_fence_and_arm(gs: Station, rig: Rig) -> None:
     assert gs.command(ARM_DISARM, 1.0).result == ACCEPTED
     ack = gs.command(START, 0.0)
     assert ack.result == ACCEPTED, ack
-    # THEN it continues to the goal and completes (surface: propeller 0, SAFETY_ARMED clear)
+    # THEN it continues to the goal and completes (surface: it brakes, armed, in the SURFACE mode, never
+    # CIRCLE; stopped, propeller 0 and SAFETY_ARMED clear: issue 23, before it was disarmed at once)
     done = gs.wait_for("HEARTBEAT", is_state("COMPLETE"), 30.0, ask=mavlink.MAVLINK_MSG_ID_HEARTBEAT)
     assert done is not None, f"no COMPLETE\n{rig.logs()}"
-    assert not armed(done), "COMPLETE (surface end action) with SAFETY_ARMED set"
+    done = gs.wait_for(
+        "HEARTBEAT", is_state("COMPLETE", arm=False), 60.0, ask=mavlink.MAVLINK_MSG_ID_HEARTBEAT
+    )
+    assert done is not None, f"COMPLETE (surface end action) still armed after 60 s\n{rig.logs()}"
+    circle = [hb for hb in gs.of("HEARTBEAT") if is_state("COMPLETE")(hb) and hb.custom_mode == 7]  # CIRCLE
+    assert not circle, "the surface end action shown as CIRCLE (loiter) while it brakes"
     # WHEN a fence is uploaded in COMPLETE THEN it is accepted and the vehicle does not re-arm
     r = gs.client.upload([obstacle_item(30.0, 30.0, 2.0)], FENCE)
     assert r.ok, r

@@ -60,8 +60,12 @@ def fly(
     seed: int = 0,
     timeout_s: float = 120.0,
     profile: str = "basin",
+    stop_delay_s: float = 2.0,
 ) -> dict[str, Any]:
-    """Fly scenario ``name``; returns the metrics of :func:`hil_sim.scenario.compute_metrics` and more."""
+    """Fly scenario ``name``; returns the metrics of :func:`hil_sim.scenario.compute_metrics` and more.
+
+    The bench stops ``stop_delay_s`` simulated seconds after COMPLETE or ABORT (longer: what the vehicle
+    does after the end, e.g. a glide, shows in the truth log)."""
     sc = SCENARIOS[name]
     samples, length = planned_samples(name)
     channel = f"closed-loop-{next(_ids)}-{id(tmp)}"
@@ -71,9 +75,9 @@ def fly(
             time_mode="lockstep",
             sensor_profile=profile,  # type: ignore[arg-type]
             seed=seed,
-            duration_s=round(2.0 * length + 10.0, 1),
+            duration_s=round(2.0 * length + 8.0 + stop_delay_s, 1),
             stop_on_state=("COMPLETE", "ABORT"),
-            stop_delay_s=2.0,
+            stop_delay_s=stop_delay_s,
             truth_log=str(truth),
         ),
         initial=InitialConfig(sc.start[0], sc.start[1], DEPTH_M, sc.start[2]),
@@ -88,6 +92,8 @@ def fly(
         guidance=guidance_cfg,
         control=dataclasses.replace(cfg.control, profile=controller),  # type: ignore[arg-type]
     )
+    if controller == "paper":  # ... to the goal: no slow run-in (hil_sim.scenario's paper guidance)
+        cfg = dataclasses.replace(cfg, mission=dataclasses.replace(cfg.mission, arrival_speed_mps=0.0))
     autopilot = Autopilot(cfg.core)
     autopilot.replace_mission(Mission((Goal(sc.goal[0], sc.goal[1], DEPTH_M, math.radians(sc.goal[2])),)))
     autopilot.request_autostart()

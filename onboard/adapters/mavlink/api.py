@@ -38,8 +38,10 @@ class VehicleSnapshot:
     ``t_s`` is the loop's time of the sample (monotonic or simulated; MAVLink timers never use it).
     Unknown values are NaN. ``goals_reached`` counts goals reached since the mission (re)started; the link
     sends MISSION_ITEM_REACHED whenever it increases. ``armed`` is ``Autopilot.actuators_live`` (HEARTBEAT
-    SAFETY_ARMED is this bit and nothing else); ``ready`` / ``ready_reason`` say whether START would be
-    accepted as far as the vehicle's own checks go; ``reason`` says why the last transition happened.
+    SAFETY_ARMED is this bit and nothing else; it is also set while the ``surface`` end action still
+    brakes); ``loitering`` is the ``loiter`` end action circling (the CIRCLE mode); ``ready`` /
+    ``ready_reason`` say whether START would be accepted as far as the vehicle's own checks go; ``reason``
+    says why the last transition happened.
     ``bus_lost`` says why the CAN bus is lost ("" while it is up: SYS_STATUS MOTOR_OUTPUTS healthy).
     ``path`` is the path the autopilot flies now (``path_kind`` "goal" to goal ``path_goal_index``, or
     "loiter"), None when it flies none; a new plan is a new object (the link compares by identity).
@@ -48,6 +50,7 @@ class VehicleSnapshot:
     t_s: float = 0.0
     state: MissionState = MissionState.IDLE
     armed: bool = False
+    loitering: bool = False  # COMPLETE with the loiter end action, not fallen back to surfacing (CIRCLE)
     ready: bool = False
     ready_reason: str = ""
     reason: str = ""

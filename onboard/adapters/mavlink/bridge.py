@@ -67,6 +67,7 @@ def status_fields(autopilot: Any) -> dict[str, Any]:
     return {
         "state": status.state,
         "armed": bool(autopilot.actuators_live),
+        "loitering": status.state is MissionState.COMPLETE and bool(autopilot.executive.loitering(autopilot)),
         "ready": bool(ready),
         "ready_reason": ready_reason,
         "reason": status.reason,

@@ -43,7 +43,7 @@ ARDUSUB_NAMES: dict[int, str] = {
 }  # fmt: skip
 
 _S = MissionState
-#: The one table: the mode a state is in (COMPLETE: by whether it is armed, i.e. loitering).
+#: The one table: the mode a state is in (COMPLETE: by whether it loiters).
 _STATE_MODE: dict[MissionState, int] = {
     _S.IDLE: MANUAL,
     _S.ARMED: MANUAL,
@@ -70,9 +70,10 @@ _PX4_REQUESTS: dict[int, core.ModeName] = {
 }
 
 
-def custom_mode(state: MissionState, armed: bool) -> int:
-    """HEARTBEAT ``custom_mode`` of a state (ArduSub's number)."""
-    if state is _S.COMPLETE and armed:
+def custom_mode(state: MissionState, loitering: bool) -> int:
+    """HEARTBEAT ``custom_mode`` of a state (ArduSub's number); COMPLETE is CIRCLE while ``loitering`` (the
+    snapshot's bit: not the armed bit, which is also set while the surface end action still brakes)."""
+    if state is _S.COMPLETE and loitering:
         return CIRCLE
     return _STATE_MODE[state]
 

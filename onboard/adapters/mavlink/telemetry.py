@@ -313,7 +313,7 @@ class Telemetry:
                 mavlink.MAV_TYPE_SUBMARINE,
                 mavlink.MAV_AUTOPILOT_GENERIC,
                 base,
-                modes.custom_mode(s.state, s.armed),
+                modes.custom_mode(s.state, s.loitering),
                 system_status(s),
                 3,
             )

@@ -20,7 +20,7 @@ from onboard.core.commands import Severity
 from onboard.core.executive.goto import Goto
 from onboard.core.executive.loiter import Loiter
 from onboard.core.executive.maneuver import Leg, Maneuver, Vehicle
-from onboard.core.executive.surface import Surface
+from onboard.core.executive.surface import Stop, Surface, arrival_speed_mps
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.nav.types import NavState
 from onboard.core.planner.errors import PlannerError
@@ -43,6 +43,7 @@ class Executive:
     goto: Goto = field(default_factory=Goto)
     loiter: Loiter = field(default_factory=Loiter)
     surface: Surface = field(default_factory=Surface)
+    stop: Stop = field(default_factory=Stop)  # the brake after COMPLETE (surface) and in HOLD
     path: Path | None = None
     path_goal_index: int = -1
     path_kind: str = ""
@@ -83,21 +84,42 @@ class Executive:
         return None if maneuver is None else maneuver.step(self, v, nav, dt_s)
 
     def follow(self, v: Vehicle, nav: NavState, dt_s: float) -> Leg:
-        """Guidance on the path flown, one step (the maneuvers call it; ``path`` is not None)."""
+        """Guidance on the path flown, one step (the maneuvers call it; ``path`` is not None). The path to
+        the mission's last goal ends in the run-in: its speed falls to ``[mission] arrival_speed_mps`` (more
+        in a current) at the goal, so the end can stop (:mod:`~onboard.core.executive.surface`)."""
         assert self.path is not None
+        mission = v.config.mission
+        last = self.path_kind == "goal" and self.path_goal_index == len(v.mission.goals) - 1
         reference, self.guidance_state, debug = guidance.step(
-            nav, self.path, self.guidance_state, v.config.guidance, dt_s
+            nav,
+            self.path,
+            self.guidance_state,
+            v.config.guidance,
+            dt_s,
+            arrival_speed_mps=arrival_speed_mps(v.config, nav) if last else 0.0,
+            run_in_decel_mps2=mission.run_in_decel_mps2,
         )
         return Leg(reference, debug)
 
     # --- what the state machine's transitions mean here ---------------------------------------------
     def on_transition(self, v: Vehicle, event: MissionEvent, after: MissionState) -> None:
         """After an accepted transition: a START or RESUME homes afresh from where the vehicle is; a state
-        that flies nothing drops the path."""
+        that flies nothing drops the path. COMPLETE (surface) and HOLD begin the stop (it brakes where
+        nothing is flown: :class:`~onboard.core.executive.surface.Stop`); every other state ends it."""
         if event in (MissionEvent.START, MissionEvent.RESUME):
             self.goto.start(self, v)
+        if after is MissionState.HOLD or (after is MissionState.COMPLETE and not self.loitering(v)):
+            self.begin_stop(v)
+        else:
+            self.stop.end()
         if after is not MissionState.RUNNING and after is not MissionState.COMPLETE:
             self.drop_path()
+
+    def begin_stop(self, v: Vehicle) -> None:
+        """Brake to a stop from now on, never deeper than the vehicle is now (a loiter that falls back to
+        surfacing calls it too)."""
+        n = v.last_nav
+        self.stop.begin(n.depth_m if n is not None else math.nan)
 
     def mission_replaced(self) -> None:
         """New goals: nothing reached, no path."""

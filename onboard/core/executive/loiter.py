@@ -6,7 +6,7 @@ flown and one lap of look-ahead for guidance's reference. The circle has no end:
 and a half along it, guidance's memory is moved back by one lap (:func:`wrap_lap`), so the same circle is
 evaluated modulo one lap for as long as the loiter lasts, and guidance's end-of-path arrival means nothing
 here. If the circle cannot be planned (it cuts an obstacle) or its plan misses the deadline, the vehicle
-surfaces instead (:mod:`~onboard.core.executive.surface`), with the reason to the operator.
+stops and surfaces instead (:mod:`~onboard.core.executive.surface`), with the reason to the operator.
 """
 
 from __future__ import annotations
@@ -72,6 +72,7 @@ class Loiter:
         log.warning("%s", text)
         v.note(Severity.WARNING, text)
         ex.path, ex.path_kind = None, "surface"  # the executive hands over to Surface
+        ex.begin_stop(v)  # which stops the vehicle first
 
     def done(self, v: Vehicle) -> bool:
         return False  # until a command ends it (disarm, abort, a new mission)

@@ -1,22 +1,173 @@
-"""Surface: the ``surface`` end action (and a loiter's fallback): propeller 0 and fins neutral at once.
+"""Surface: the ``surface`` end action (and a loiter's fallback), and the stop it shares with HOLD.
 
-Positive buoyancy brings the vehicle up; nothing drives on past the last goal. There is no path and no
-plan, so nothing can fail; it has ended as soon as it starts.
+The end stops (issue 23, item 3). Before, ``surface`` was propeller 0 and fins neutral at once: the vehicle
+arrived at 1.24-1.30 m/s and glided 15.7-19.9 m on in 20-30 s, into an obstacle 2-3 m past the goal, and a
+goal at 19.5 m sank on to the 20 m depth limit. Now:
+
+- the run-in to the last goal slows to ``[mission] arrival_speed_mps`` (guidance's speed reference,
+  :func:`onboard.core.guidance.guidance.step`), and where the vehicle is faster than that reference the
+  propeller reverses (:func:`run_in_rps`): drag alone halves this hull's speed only every ~16 m;
+- after COMPLETE (surface) and in HOLD, :class:`Stop` brakes: the propeller in reverse, at most ``[mission]
+  brake_rps`` (PROP_CMD carries +-40 rps; the bench's propeller goes to -10 rps), tapering off with the speed
+  over ground ahead, the rudder centred and the stern planes level, nose up where the vehicle is below the
+  depth the stop began at (its last goal's), so it never sinks below it, and stops within ``[mission]
+  stop_distance_m`` (the zone the validator keeps clear past every goal). Once the speed over ground ahead
+  is below :data:`STOPPED_MPS` (or after :data:`BRAKE_MAX_S`: a following current the reverse propeller
+  cannot stem), the propeller is 0 and the fins neutral; positive buoyancy brings the vehicle up.
+
+While the stop brakes in COMPLETE the actuators are live (the vehicle commands them: armed, actuator mode
+ARMED); once it has stopped they are not (``Autopilot.actuators_live``). ABORT does not brake: the bus
+contract's ABORT mode is propeller off at the actuator node; its stern planes are nose up already.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from onboard.core.config import CoreConfig
+from onboard.core.control.actuators import ActuatorCommand, ActuatorLimits, saturate
 from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.guidance.guidance import GuidanceReference
 from onboard.core.nav.types import NavState
 
 if TYPE_CHECKING:
     from onboard.core.executive.executive import Executive
 
+#: Below this speed over ground ahead (m/s) the vehicle has stopped: the DVL's noise is centimetres a second.
+STOPPED_MPS = 0.02
+#: The reverse propeller tapers off below this speed over ground ahead (m/s; thrust goes with rps^2, so
+#: rps with the square root of the speed: the thrust with the speed), so it does not drive the vehicle
+#: astern once it has stopped (the propeller lags ~0.4 s). Drag alone is no brake at a few cm/s: the
+#: bench's vehicle creeps on at 0.05 m/s for minutes with the propeller off.
+BRAKE_TAPER_MPS = 0.1
+#: The longest a stop brakes (s): from 0.5 m/s the bench's vehicle stops in about 20 s (the reverse
+#: propeller is weak: -10 rps); longer means a following current the propeller cannot stem, and braking on
+#: would only cost battery.
+BRAKE_MAX_S = 40.0
+#: The stop's stern planes: pitch (rad) towards level, nose up by ``DEPTH_GAIN`` rad a metre below the depth
+#: the stop began at (at most :data:`NOSE_UP_MAX_RAD`), each radian of pitch error one radian of stern.
+#: Not hard nose up: a positively buoyant hull pitched nose up is driven forward along its axis by its
+#: buoyancy (the bench: 0.46 m/s kept for 5 s against -10 rps at 15 deg nose up).
+DEPTH_GAIN_RAD_PER_M = 0.3
+NOSE_UP_MAX_RAD = math.radians(10.0)
+PITCH_GAIN = 1.0
+#: On the run-in the propeller reverses while the vehicle is faster than the speed reference, fully once it
+#: is this much faster (m/s): the run-in's deceleration asks for most of the reverse propeller's authority.
+RUN_IN_MARGIN_MPS = 0.05
+#: A path less curved than this (1/m: a 1 km radius) is a straight, where the run-in may reverse.
+RUN_IN_STRAIGHT_1PM = 1e-3
+
+
+#: The run-in's arrival speed rises by this much per m/s of estimated current (s/s): the fins' force goes
+#: with the square of the speed through the water, and slow in a current they cannot hold the goal's line
+#: (the current campaign at 0.25 m/s: 0.25-0.43 m off the goal in 0.1-0.2 m/s, 12 of 82 runs never
+#: arriving in 0.3-0.5 m/s across the final heading); from 0.2 m/s on the run-in does not slow at all (the
+#: stop after COMPLETE still brakes, and the current carries a stopped vehicle anyway).
+RUN_IN_CURRENT_GAIN = 4.0
+#: Estimated currents up to this (m/s) leave the arrival speed as configured: the estimate's noise in still
+#: water (the planner's own threshold for a current, ``PLAN_CURRENT_MIN_MPS``).
+RUN_IN_CURRENT_MIN_MPS = 0.05
+
+
+def arrival_speed_mps(cfg: CoreConfig, nav: NavState) -> float:
+    """The run-in's speed at the last goal (m/s; 0 = no run-in): ``[mission] arrival_speed_mps``, raised
+    by :data:`RUN_IN_CURRENT_GAIN` x the estimated current beyond :data:`RUN_IN_CURRENT_MIN_MPS` (the
+    estimate's value however vague: a current it is still learning is no reason to creep in slowly)."""
+    arrival = cfg.mission.arrival_speed_mps
+    if arrival <= 0.0:
+        return 0.0
+    current = math.hypot(nav.current_north_mps, nav.current_east_mps)
+    if not math.isfinite(current):
+        return arrival
+    return arrival + RUN_IN_CURRENT_GAIN * max(current - RUN_IN_CURRENT_MIN_MPS, 0.0)
+
+
+def speed_ahead_mps(nav: NavState) -> float:
+    """The speed over ground along the heading (m/s; + = ahead): what the stop brings to 0."""
+    vn, ve, _ = nav.velocity_ned_mps
+    return vn * math.cos(nav.yaw_rad) + ve * math.sin(nav.yaw_rad)
+
+
+def reverse_rps(
+    excess_mps: float,
+    brake_rps: float,
+    previous_rps: float,
+    limits: ActuatorLimits,
+    dt_s: float,
+    taper_mps: float = BRAKE_TAPER_MPS,
+) -> float:
+    """The braking propeller speed (rev/s, <= 0) for a speed ``excess_mps`` to take off: ``-brake_rps``,
+    tapered below ``taper_mps``, reached at the propeller's rate limit from ``previous_rps`` (or from 0:
+    a forward propeller stops at once, as the actuators' not-live rule has it)."""
+    previous_rps = min(previous_rps, 0.0)
+    target = -brake_rps * math.sqrt(min(1.0, max(excess_mps, 0.0) / taper_mps))
+    rate = limits.propeller_rate_limit_rps_per_s
+    if rate > 0.0:
+        step = rate * dt_s if math.isfinite(dt_s) and dt_s > 0.0 else 0.0
+        target = min(max(target, previous_rps - step), previous_rps + step)
+    return min(max(target, -brake_rps), 0.0)
+
+
+def run_in_rps(
+    nav: NavState, reference: GuidanceReference, cfg: CoreConfig, previous_rps: float, dt_s: float
+) -> float | None:
+    """On the run-in to the last goal: the reverse propeller speed (rev/s) while the vehicle is faster than
+    guidance's speed reference (fully from :data:`RUN_IN_MARGIN_MPS` faster) on a straight stretch; None:
+    the PD's command stands. Never in a turn (the reference's curvature above :data:`RUN_IN_STRAIGHT_1PM`):
+    the fins need the speed through the water there (current campaign, 0.5 m/s across the final heading:
+    braking into the turn, the vehicle overshot it by 4 m and arrived 13 deg off the goal's course)."""
+    excess = speed_ahead_mps(nav) - reference.speed_mps
+    if not excess > 0.0 or cfg.mission.brake_rps <= 0.0 or abs(reference.curvature_1pm) > RUN_IN_STRAIGHT_1PM:
+        return None
+    mission = cfg.mission
+    return reverse_rps(excess, mission.brake_rps, previous_rps, cfg.control.limits, dt_s, RUN_IN_MARGIN_MPS)
+
+
+@dataclass
+class Stop:
+    """The stop after COMPLETE (surface) and in HOLD: ``braking`` from :meth:`begin` until stopped."""
+
+    braking: bool = False
+    t_s: float = 0.0  # how long it has braked (s)
+    depth_m: float = math.nan  # the depth it began at (m): never deeper than that
+
+    def begin(self, depth_m: float) -> None:
+        """Brake from now on, never deeper than ``depth_m`` (the vehicle's depth now: at COMPLETE, its last
+        goal's)."""
+        self.braking, self.t_s, self.depth_m = True, 0.0, depth_m
+
+    def end(self) -> None:
+        self.braking = False
+
+    def command(
+        self, nav: NavState, cfg: CoreConfig, previous: ActuatorCommand, dt_s: float
+    ) -> ActuatorCommand | None:
+        """One tick of braking: the command, or None once stopped (the caller sends its still command)."""
+        if not self.braking:
+            return None
+        self.t_s += max(dt_s, 0.0) if math.isfinite(dt_s) else 0.0
+        speed = speed_ahead_mps(nav)
+        if not (math.isfinite(speed) and speed > STOPPED_MPS and self.t_s <= BRAKE_MAX_S):
+            self.braking = False
+            return None
+        limits = cfg.control.limits
+        below_m = nav.depth_m - self.depth_m if math.isfinite(self.depth_m) else 0.0
+        # level, or nose up where it is below the depth it began at
+        pitch_d = min(max(DEPTH_GAIN_RAD_PER_M * below_m, 0.0), NOSE_UP_MAX_RAD)
+        pitch_err = pitch_d - nav.pitch_rad if math.isfinite(nav.pitch_rad) else 0.0
+        stern = -PITCH_GAIN * pitch_err  # negative stern = nose up
+        fins = saturate(ActuatorCommand(0.0, stern, stern, 0.0), previous, limits, dt_s)
+        rps = reverse_rps(speed, cfg.mission.brake_rps, previous.propeller_rps, limits, dt_s)
+        return ActuatorCommand(
+            fins.rudder_rad, fins.stern_port_rad, fins.stern_starboard_rad, rps, fins.flags
+        )
+
 
 class Surface:
-    """Nothing to fly: the pipeline sends NEUTRAL (the actuators are not live, :func:`actuators_live`)."""
+    """Nothing to fly: the pipeline sends the stop's command (:class:`Stop`), then NEUTRAL (the actuators
+    are then not live, :func:`actuators_live`)."""
 
     kind = "surface"
 
@@ -33,4 +184,4 @@ class Surface:
         return True
 
     def progress(self, ex: Executive, v: Vehicle) -> Progress:
-        return Progress("surfacing", 1.0)
+        return Progress("stopping" if ex.stop.braking else "surfacing", 1.0)

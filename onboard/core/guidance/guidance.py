@@ -65,6 +65,10 @@ SPEED_MIN_MPS = 0.1
 #: The shortest LOS lookahead that means one, m: the LOS heading is atan(e_y / Delta), and the estimate's
 #: cross-track noise is decimetres, so below 0.5 m it swings through +-90 deg on the noise.
 LOOKAHEAD_MIN_M = 0.5
+#: The run-in's track reference falls at most this far behind the vehicle, m (:func:`step`): eq. 8 then
+#: takes the propeller down while the vehicle is faster than the run-in's speed, and the reference is back
+#: with the vehicle within seconds once it is not.
+RUN_IN_LAG_M = 1.0
 #: The path speed's minimum: :data:`SPEED_MIN_MPS`, or the steerage way ``min_water_speed_mps`` if larger.
 _SPEED_MIN = Bound(
     lambda g: max(SPEED_MIN_MPS, g.min_water_speed_mps), f"min_water_speed_mps where above {SPEED_MIN_MPS:g}"
@@ -250,11 +254,13 @@ class GuidanceReference:
 
 @dataclass(frozen=True)
 class GuidanceDebug:
-    """Per-step numbers: the LOS heading correction (rad), the ILOS integral (m) and the crab angle (rad)."""
+    """Per-step numbers: the LOS heading correction (rad), the ILOS integral (m) and the crab angle (rad);
+    ``run_in``: the run-in's speed limit holds the speed reference down this step (:func:`step`)."""
 
     los_correction_rad: float = 0.0
     ilos_int_m: float = 0.0
     crab_rad: float = 0.0
+    run_in: bool = False
 
 
 def step(
@@ -263,8 +269,19 @@ def step(
     state: GuidanceState,
     params: GuidanceParams,
     dt_s: float,
+    *,
+    arrival_speed_mps: float = 0.0,
+    run_in_decel_mps2: float = 0.0,
 ) -> tuple[GuidanceReference, GuidanceState, GuidanceDebug]:
-    """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``."""
+    """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``.
+
+    The run-in (``arrival_speed_mps`` > 0, the mission's last goal: the executive says so): the speed
+    reference is at most sqrt(arrival^2 + 2 * ``run_in_decel_mps2`` * the path left from the vehicle's
+    projection), so the vehicle reaches the goal at ``arrival_speed_mps`` and can stop within a few metres
+    after it (:mod:`onboard.core.executive.surface`); in ``track`` the moving reference moves at that speed
+    (a vehicle that lags catches it up over the run-in, not at the goal: it used to arrive at 1.3 m/s and
+    glide 20 m) and falls at most :data:`RUN_IN_LAG_M` behind the vehicle.
+    """
     dt_s = max(0.0, dt_s) if math.isfinite(dt_s) else 0.0
     mode = params.mode
     speed = params.speed_mps
@@ -293,10 +310,23 @@ def step(
     ref_speed = speed
     if params.reference_accel_mps2 > 0.0:  # the speed asked for starts at rest (every mode)
         ref_speed = min(speed, state.ref_speed_mps + params.reference_accel_mps2 * dt_s)
+    run_in = False
+    if arrival_speed_mps > 0.0 and run_in_decel_mps2 > 0.0 and nav_ok:
+        left_m = max(length - s_proj, 0.0)
+        cap = math.sqrt(arrival_speed_mps**2 + 2.0 * run_in_decel_mps2 * left_m)
+        # through the water: a following current adds its share (the vehicle cannot brake it away)
+        c_along = nav.current_north_mps * math.cos(proj.yaw_rad) + nav.current_east_mps * math.sin(
+            proj.yaw_rad
+        )
+        cap += max(c_along, 0.0) if math.isfinite(c_along) else 0.0
+        run_in = cap < ref_speed
+        ref_speed = min(ref_speed, cap)
     if mode == "track":
         s_ref += ref_speed * dt_s
         if params.reference_stops_at_end:
             s_ref = min(s_ref, length)
+        if run_in:  # a vehicle faster than the run-in's speed is held back, not left behind
+            s_ref = max(s_ref, s_proj - RUN_IN_LAG_M)
         ref = sample_extended(path, s_ref)
     else:
         s_ref = s_proj
@@ -420,7 +450,7 @@ def step(
         ref_speed_mps=ref_speed,
         speed_int_m=speed_int,
     )
-    debug = GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int, crab_rad=crab)
+    debug = GuidanceDebug(los_correction_rad=los_corr, ilos_int_m=ilos_int, crab_rad=crab, run_in=run_in)
     return reference, new_state, debug
 
 

@@ -60,6 +60,26 @@ class MissionParams:
         2.0, unit="s", min=0.05, max=60.0,
         desc="a plan (in the planning worker) that takes longer is a refusal with a reason",
     )  # fmt: skip
+    # The end that stops (onboard/core/executive/surface.py; issue 23 item 3): the run-in to the last goal
+    # slows to arrival_speed_mps, then COMPLETE (surface), HOLD brake with the propeller in reverse and the
+    # stern planes nose up until the speed over ground is about 0; the validator keeps stop_distance_m past
+    # every goal clear of obstacles and the depth limit.
+    arrival_speed_mps: float = param(
+        0.25, unit="m/s", min=0.0, max=5.0, mavlink="MIS_ARRIVE_SPD",
+        desc="speed at the last goal: the run-in slows to it (0 = no slow-down)",
+    )  # fmt: skip
+    run_in_decel_mps2: float = param(
+        0.025, unit="m/s^2", min=0.001, max=5.0, mavlink="MIS_RUNIN_DEC",
+        desc="the run-in's speed reference falls at this rate towards the last goal",
+    )  # fmt: skip
+    brake_rps: float = param(
+        10.0, unit="rps", min=0.0, max=40.0, mavlink="MIS_BRAKE_RPS",
+        desc="reverse propeller speed, at most, while stopping after COMPLETE or in HOLD (0 = glide)",
+    )  # fmt: skip
+    stop_distance_m: float = param(
+        3.0, unit="m", min=0.0, max=100.0, mavlink="MIS_STOP_M",
+        desc="the stopping zone past every goal (along its heading) the validator keeps clear (0 = off)",
+    )  # fmt: skip
     # The leg monitors and the feasibility check (onboard/core/executive/monitors.py; DUNE's PathController).
     # Defaults generous enough that no mission of the repo's campaign specs that completes is stopped: they
     # catch the missions that cannot be flown (campaign hil_sim/campaigns/strong_current_monitors.yaml).

@@ -18,7 +18,12 @@ Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is
    every side (an obstacle that cannot reach into the area is a mistake, typically a wrong origin or unit,
    and is refused rather than silently ignored; one that overlaps the boundary is legitimate).
 5. Geometry: no goal inside an inflated obstacle (radius ``max(R + margin, r_min)``, the planner's own
-   inflation), reported naming the goal and the obstacle.
+   inflation), reported naming the goal and the obstacle. The stopping zone past every goal (the vehicle
+   stops after COMPLETE, and in a HOLD that may come at any goal: :mod:`onboard.core.executive.surface`):
+   the segment of ``[mission] stop_distance_m`` from the goal along its yaw (a free yaw: the disc of that
+   radius) enters no obstacle (its radius, not inflated: the vehicle has stopped, it only must not be
+   inside), and the goal's depth is more than :data:`STOP_DEPTH_MARGIN_M` above ``[failsafe] max_depth_m``
+   (the stop holds the depth it began at, the goal's within the depth loop's error) (:func:`_check_stops`).
 6. Feasibility: the planner (:func:`onboard.core.planner.planner.plan`) plans every leg: leg i from goal
    i-1 to goal i (i >= 1) and leg 0 from ``start_pose`` when it is given. The start yaw of leg i is goal
    i-1's yaw or, when that is None (free), the end yaw of the previous leg's path. Without a previous path
@@ -66,6 +71,11 @@ _FIELD_OF: dict[str, Field] = {
 #: within one turn either way. A larger one (999) is a typing or unit mistake, refused, never wrapped into
 #: some other heading (the first version's rule, MAV_MISSION_INVALID_PARAM4 on MAVLink).
 YAW_LIMIT_RAD = math.radians(360.0)
+#: The depth a goal keeps above ``[failsafe] max_depth_m``, m: the vehicle stops at the depth it arrived at
+#: (the stop's stern planes hold it or rise), which is the goal's within the depth loop's error (the depth
+#: campaign: final depth errors of centimetres; a goal 0.5 m above the limit is flown). Before issue 23 a
+#: goal at 19.5 m sank on to the 20 m limit after COMPLETE and ABORTed.
+STOP_DEPTH_MARGIN_M = 0.25
 #: Start headings of leg 1 when goal 0's arrival heading is unknown (after the straight one), rad.
 _FALLBACK_YAWS_RAD = tuple(math.radians(45.0 * k) for k in range(1, 8))
 
@@ -263,6 +273,54 @@ def _check_geometry(mission: Mission, config: CoreConfig) -> list[Problem]:
     return out
 
 
+def _segment_distance_m(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
+    """The distance (m) from point p to the segment a-b."""
+    dx, dy = bx - ax, by - ay
+    seg2 = dx * dx + dy * dy
+    t = 0.0 if seg2 == 0.0 else min(max(((px - ax) * dx + (py - ay) * dy) / seg2, 0.0), 1.0)
+    return math.hypot(px - (ax + t * dx), py - (ay + t * dy))
+
+
+def _check_stops(mission: Mission, config: CoreConfig) -> list[Problem]:
+    """Rule 5's stopping zones: past every goal, ``stop_distance_m`` along its yaw clear of every obstacle
+    and the goal's depth :data:`STOP_DEPTH_MARGIN_M` above the failsafe depth limit."""
+    stop_m = config.mission.stop_distance_m
+    if stop_m <= 0.0:
+        return []
+    limit_m = config.failsafe.max_depth_m
+    out = []
+    for i, g in enumerate(mission.goals):
+        if g.depth_m + STOP_DEPTH_MARGIN_M >= limit_m:
+            out.append(
+                Problem(
+                    "goal",
+                    i,
+                    "depth",
+                    f"depth {_fmt(g.depth_m)} m leaves less than {_fmt(STOP_DEPTH_MARGIN_M)} m above the "
+                    f"failsafe depth limit {_fmt(limit_m)} m for the stop after it",
+                )
+            )
+        if g.yaw_rad is None:
+            ex, ey, zone = g.x_m, g.y_m, f"the disc of {_fmt(stop_m)} m round it (free heading)"
+            reach_m = stop_m
+        else:
+            ex, ey = g.x_m + stop_m * math.cos(g.yaw_rad), g.y_m + stop_m * math.sin(g.yaw_rad)
+            zone = f"{_fmt(stop_m)} m past it along {_fmt(round(math.degrees(g.yaw_rad), 1))} deg"
+            reach_m = 0.0
+        for j, o in enumerate(mission.obstacles):
+            if _segment_distance_m(o.x_m, o.y_m, g.x_m, g.y_m, ex, ey) - reach_m < o.radius_m:
+                out.append(
+                    Problem(
+                        "goal",
+                        i,
+                        "plan",
+                        f"its stopping zone ({zone}, stop_distance_m) enters obstacle {j} at "
+                        f"({_fmt(o.x_m)}, {_fmt(o.y_m)}), radius {_fmt(o.radius_m)} m",
+                    )
+                )
+    return out
+
+
 def _plan_leg(
     start: tuple[float, float, float], start_depth_m: float, goal: Goal, mission: Mission, config: CoreConfig
 ) -> Path:
@@ -378,6 +436,8 @@ def check_limits(mission: Mission, config: CoreConfig) -> MissionCheck:
         problems += _check_obstacle(i, o, config)
     if not problems:
         problems += _check_geometry(mission, config)
+    if not problems:  # a goal inside an obstacle has its stopping zone there too: said once
+        problems += _check_stops(mission, config)
     return MissionCheck(tuple(problems))
 
 

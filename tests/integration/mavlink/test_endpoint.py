@@ -65,7 +65,7 @@ def test_commands_judged_by_the_core_with_reasons(vehicle: Vehicle) -> None:
         )
         assert c.command(mavlink.MAV_CMD_MISSION_START) == 0
         seen: list[str] = []
-        t_end = time.monotonic() + 5.0
+        t_end = time.monotonic() + 30.0  # generous: the run-in to the last goal slows to the arrival speed
         while time.monotonic() < t_end and not {"reached 1", "text COMPLETE"} <= set(seen):
             m = c.recv(0.1)
             if m is not None and m.get_type() == "MISSION_ITEM_REACHED":

@@ -51,7 +51,8 @@ def test_depth_at_or_below_the_failsafe_limit_is_refused() -> None:
     assert str(check.first) == "goal 1: depth 25 m is below the failsafe depth limit 20 m"
     # at the limit: a goal there could never be completed (the failsafe aborts at that depth)
     assert check_mission(Mission((g(10, 0, 20.0),)), CFG).first.field == "depth"  # type: ignore[union-attr]
-    assert check_mission(Mission((g(10, 0, 19.9),)), CFG).ok
+    # issue 23: the stop after a goal needs STOP_DEPTH_MARGIN_M (0.25 m) above the limit (19.9 m was accepted)
+    assert check_mission(Mission((g(10, 0, 19.7),)), CFG).ok
 
 
 def test_depth_above_the_surface_is_refused_by_the_validator_not_the_model() -> None:
