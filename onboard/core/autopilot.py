@@ -72,7 +72,8 @@ class Autopilot:
     @property
     def actuators_live(self) -> bool:
         """True exactly when the actuators may move under the vehicle's own command (the state table's
-        rule, :func:`~onboard.core.mission.state.actuators_live`)."""
+        rule, :func:`~onboard.core.mission.state.actuators_live`; COMPLETE counts as loitering while the
+        stop still brakes: the vehicle commands its propeller)."""
         ex = self.executive
         return actuators_live(self.status.state, ex.loitering(self) or ex.stop.braking)
 

@@ -28,8 +28,12 @@ class MissionParams:
     comes within it of the goal with the heading within ``[guidance] arrival_yaw_tol_deg``, or crosses the
     goal line (guidance gets it from :class:`~onboard.core.config.CoreConfig`); the goal is then reached
     if the estimate is within it of the goal, else it is a miss, re-planned until ``max_tries``, then HOLD.
-    After the last goal, ``end_action``: ``surface`` (propeller 0 and fins neutral at once, the positively
-    buoyant vehicle floats up; disarmed) or ``loiter`` (circle the last goal at its depth; armed).
+    After the last goal, ``end_action``: ``surface`` (the vehicle stops, then propeller 0 and fins neutral,
+    the positively buoyant vehicle floats up; disarmed once stopped) or ``loiter`` (circle the last goal at
+    its depth; armed). The run-in to the last goal slows to ``arrival_speed_mps`` (the speed reference
+    falls at ``run_in_decel_mps2``); after COMPLETE (surface) and in HOLD the vehicle brakes (propeller in
+    reverse up to ``brake_rps``, stern planes level or nose up) until its speed over ground is about 0, so it
+    stops within ``stop_distance_m``, the zone the validator keeps clear past every goal.
 
     The leg monitors (:mod:`onboard.core.executive.monitors`): less progress (along the path, or back
     onto it) than ``progress_min_mps`` over ``monitor_window_s``; off the path by more than
