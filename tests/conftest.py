@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,13 @@ from typing import Any
 import pytest
 
 TIERS = ("unit", "integration", "e2e")
+
+# The operator's Ctrl-C, as the tests send it (SIGINT to `auv-gcs fly`, `monitor`, a campaign), must reach the
+# programs they start. A suite started in the background of a non-interactive shell (`make test &`, nohup)
+# inherits SIGINT ignored, and an ignored signal stays ignored across exec: each program would then never
+# see it. Handled here (a handler is reset to the default on exec), the programs get the default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 #: Tests that must not run beside one another in parallel (``make test``: pytest-xdist ``--dist loadgroup``
 #: runs a group on one worker, one test after the other): node id prefixes by group. The scheduler below reads

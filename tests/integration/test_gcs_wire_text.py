@@ -52,7 +52,9 @@ HOSTILE = [
     (CONTROL_RUN, "<>"),
 ]
 WIRE_ESCAPES = ("\x1b[31mred", "\x1b]8;;http://x")  # the wire's own sequences: never on the operator's screen
-MISSION = "goals:\n  - {x_m: 60.0, y_m: 0.0, depth_m: 1.0}\n"
+#: Far enough that the flight is still under way when the operator's Ctrl-C comes, however slowly a loaded
+#: machine feeds the stranger's names (at 60 m the vehicle sometimes completed first).
+MISSION = "goals:\n  - {x_m: 200.0, y_m: 0.0, depth_m: 1.0}\n"
 
 
 class Run:
