@@ -183,7 +183,10 @@ class Autopilot:
 
     def request_autostart(self) -> None:
         """Arm now and start as soon as the navigation solution is valid (``--autostart``)."""
-        self.autostart_pending = self.handle(c.Arm("autostart")).accepted
+        verdict = self.handle(c.Arm("autostart"))
+        self.autostart_pending = verdict.accepted
+        if not verdict.accepted:  # no ground station asked: the operator hears the refusal here
+            self.note(c.Severity.WARNING, f"autostart: arm refused: {verdict.reason}")
 
     def before_step(self) -> None:
         """The core's own command sources, judged like every other, before the step (and before the loop
@@ -191,7 +194,9 @@ class Autopilot:
         its START once the navigation solution (of the last step) is valid."""
         if self.autostart_pending and self.status.state is MissionState.ARMED and self.ready[0]:
             self.autostart_pending = False
-            self.handle(c.Start(None, "autostart: navigation valid"))
+            verdict = self.handle(c.Start(None, "autostart: navigation valid"))
+            if not verdict.accepted:  # e.g. a goal it cannot make good against the current: said, not silent
+                self.note(c.Severity.WARNING, f"autostart: start refused: {verdict.reason}")
 
     def note_loop_late(self, late_s: float) -> None:
         """How long the loop has been behind its schedule (s, 0 = on time): the next step's failsafe input."""

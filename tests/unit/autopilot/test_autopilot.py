@@ -259,6 +259,9 @@ def test_autostart_is_not_left_pending_when_arming_fails_or_after_abort() -> Non
     ap = Autopilot(core())
     ap.request_autostart()  # no mission: ARM refused
     assert not ap.autostart_pending
+    # and the operator is told why (no ground station asked, so no COMMAND_ACK carries it)
+    texts = [n.text for n in ap.take_notes()]
+    assert any(t.startswith("autostart: arm refused: ") for t in texts), texts
     ap.replace_mission(Mission((Goal(20.0, 0.0, 1.0, 0.0),)))
     ap.request_autostart()
     ap.handle(c.Abort())
