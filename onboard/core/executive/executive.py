@@ -137,6 +137,11 @@ class Executive:
 
     # --- plans off the control thread ----------------------------------------------------------------
     @property
+    def braking(self) -> bool:
+        """The stop is braking (after COMPLETE or in HOLD)."""
+        return self.stop.braking
+
+    @property
     def plan_waiting(self) -> PlanRequest | None:
         """The request whose answer is awaited, if any."""
         return self._plan_wait

@@ -26,17 +26,13 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 from onboard.core.commands import Severity
-from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.executive.monitors import LegMonitor
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.nav.types import NavState
 from onboard.core.plans import current_radius_m
-
-if TYPE_CHECKING:
-    from onboard.core.executive.executive import Executive
 
 log = logging.getLogger(__name__)
 
@@ -62,19 +58,19 @@ class Goto:
         self.attempt = 1
         self.monitor.reset()
 
-    def start(self, ex: Executive, v: Vehicle) -> None:
+    def start(self, ex: Plans, v: Vehicle) -> None:
         self.attempt = 1
         self.monitor.reset()  # the legs are watched afresh from where the vehicle is
         ex.drop_path()
         ex.ask_plan(v, "goal")  # afresh, from where the vehicle is
 
-    def goal_set(self, ex: Executive) -> None:
+    def goal_set(self, ex: Plans) -> None:
         """The operator made another goal the current one: a first try at it, planned when next flown."""
         self.attempt = 1
         self.monitor.reset()
         ex.drop_path()
 
-    def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+    def step(self, ex: Plans, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
         index = v.status.goal_index
         if ex.path is None or ex.path_goal_index != index or ex.path_kind != "goal":
             wait = ex.plan_waiting
@@ -107,19 +103,19 @@ class Goto:
             ex.ask_plan(v, "goal", replan=True)
         return leg
 
-    def plan_failed(self, ex: Executive, v: Vehicle, why: str, late: bool) -> None:
+    def plan_failed(self, ex: Plans, v: Vehicle, why: str, late: bool) -> None:
         text = why if late else f"cannot plan goal {v.status.goal_index}: {why}"
         v.apply(MissionEvent.HOLD, text, severity=Severity.WARNING)
 
     def done(self, v: Vehicle) -> bool:
         return v.status.state is MissionState.COMPLETE
 
-    def progress(self, ex: Executive, v: Vehicle) -> Progress:
+    def progress(self, ex: Plans, v: Vehicle) -> Progress:
         n = len(v.mission.goals)
         text = f"goal {v.status.goal_index} of {n}, try {self.attempt}, {self.goals_reached} reached"
         return Progress(text, self.goals_reached / n if n else math.nan)
 
-    def arrived(self, ex: Executive, v: Vehicle, nav: NavState) -> None:
+    def arrived(self, ex: Plans, v: Vehicle, nav: NavState) -> None:
         """The estimate crossed the goal line: reached within the arrival radius, else a miss."""
         index = v.status.goal_index
         goal = v.mission.goals[index]
@@ -163,7 +159,7 @@ class Goto:
         )
 
     @staticmethod
-    def _current_changed(ex: Executive, v: Vehicle, nav: NavState) -> bool:
+    def _current_changed(ex: Plans, v: Vehicle, nav: NavState) -> bool:
         """True when the flown goal path should be planned again for the current now estimated: the
         planner widens turns for a current (``current_aware``), the estimate has moved by
         :data:`REPLAN_CURRENT_CHANGE_MPS` since the path was asked for (at least :data:`REPLAN_MIN_INTERVAL_S`

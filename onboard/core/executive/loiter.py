@@ -15,16 +15,12 @@ import dataclasses
 import logging
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from onboard.core.commands import Severity
-from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.guidance.guidance import GuidanceState
 from onboard.core.nav.types import NavState
 from onboard.core.planner.path import ArcSegment, Path
-
-if TYPE_CHECKING:
-    from onboard.core.executive.executive import Executive
 
 log = logging.getLogger(__name__)
 
@@ -56,18 +52,18 @@ class Loiter:
 
     kind = "loiter"
 
-    def start(self, ex: Executive, v: Vehicle) -> None:
+    def start(self, ex: Plans, v: Vehicle) -> None:
         if ex.plan_waiting is None:
             ex.ask_plan(v, "loiter")
 
-    def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+    def step(self, ex: Plans, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
         if ex.path is None or ex.path_kind != "loiter":
             self.start(ex, v)
             return None
         ex.guidance_state = wrap_lap(ex.path, ex.guidance_state)
         return ex.follow(v, nav, dt_s)
 
-    def plan_failed(self, ex: Executive, v: Vehicle, why: str, late: bool) -> None:
+    def plan_failed(self, ex: Plans, v: Vehicle, why: str, late: bool) -> None:
         text = f"{why}: surfacing" if late else f"loiter not possible ({why}): surfacing"
         log.warning("%s", text)
         v.note(Severity.WARNING, text)
@@ -77,7 +73,7 @@ class Loiter:
     def done(self, v: Vehicle) -> bool:
         return False  # until a command ends it (disarm, abort, a new mission)
 
-    def progress(self, ex: Executive, v: Vehicle) -> Progress:
+    def progress(self, ex: Plans, v: Vehicle) -> Progress:
         laps = 0.0
         if ex.path is not None and ex.path_kind == "loiter" and ex.guidance_state.s_proj_m is not None:
             lap = lap_m(ex.path)

@@ -14,17 +14,16 @@ methods and one line in :meth:`Executive.active`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 from onboard.core.commands import Severity
 from onboard.core.config import CoreConfig
-from onboard.core.guidance.guidance import GuidanceDebug, GuidanceReference
+from onboard.core.guidance.guidance import GuidanceDebug, GuidanceReference, GuidanceState
 from onboard.core.mission.model import Mission
 from onboard.core.mission.state import MissionEvent, MissionStatus, Transition
 from onboard.core.nav.types import NavState
-
-if TYPE_CHECKING:
-    from onboard.core.executive.executive import Executive
+from onboard.core.planner.path import Path
+from onboard.core.plans import PlanRequest
 
 
 class Vehicle(Protocol):
@@ -61,24 +60,53 @@ class Progress:
     fraction: float
 
 
+class Plans(Protocol):
+    """What a maneuver may use of the executive (:class:`~onboard.core.executive.executive.Executive`): the
+    path flown and where it came from, guidance's state on it, the plans asked for off the control thread
+    and the stop. A protocol, so the maneuvers depend on this file only and the executive on them."""
+
+    path: Path | None
+    path_goal_index: int
+    path_kind: str
+    path_t_s: float
+    path_current_mps: float
+    guidance_state: GuidanceState
+
+    @property
+    def plan_waiting(self) -> PlanRequest | None: ...
+
+    @property
+    def braking(self) -> bool: ...
+
+    def ask_plan(self, v: Vehicle, kind: str, replan: bool = False) -> None: ...
+
+    def drop_path(self) -> None: ...
+
+    def follow(self, v: Vehicle, nav: NavState, dt_s: float) -> Leg: ...
+
+    def begin_stop(self, v: Vehicle) -> None: ...
+
+    def current_mps(self, nav: NavState) -> float: ...
+
+
 class Maneuver(Protocol):
     """One maneuver. ``kind`` names the plans it asks for and the path it flies (``goal``, ``loiter``,
     ``surface``)."""
 
     kind: str
 
-    def start(self, ex: Executive, v: Vehicle) -> None:
+    def start(self, ex: Plans, v: Vehicle) -> None:
         """Begin (afresh, from where the vehicle is): ask for the plan it needs, if any."""
 
-    def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+    def step(self, ex: Plans, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
         """One tick: the leg to fly (None: nothing to fly, the pipeline holds the fins neutral)."""
 
-    def plan_failed(self, ex: Executive, v: Vehicle, why: str, late: bool) -> None:
+    def plan_failed(self, ex: Plans, v: Vehicle, why: str, late: bool) -> None:
         """Its plan could not be made: the planner's error ``why``, or (``late``) why it missed its
         deadline. What it does instead is its own business (hold, surface)."""
 
     def done(self, v: Vehicle) -> bool:
         """True when it has ended (nothing more to fly)."""
 
-    def progress(self, ex: Executive, v: Vehicle) -> Progress:
+    def progress(self, ex: Plans, v: Vehicle) -> Progress:
         """How far it is."""

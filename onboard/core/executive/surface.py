@@ -24,16 +24,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import ActuatorCommand, ActuatorLimits, saturate
-from onboard.core.executive.maneuver import Leg, Progress, Vehicle
+from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.guidance.guidance import GuidanceReference
 from onboard.core.nav.types import NavState
-
-if TYPE_CHECKING:
-    from onboard.core.executive.executive import Executive
 
 #: Below this speed over ground ahead (m/s) the vehicle has stopped: the DVL's noise is centimetres a second.
 STOPPED_MPS = 0.02
@@ -171,17 +167,17 @@ class Surface:
 
     kind = "surface"
 
-    def start(self, ex: Executive, v: Vehicle) -> None:
+    def start(self, ex: Plans, v: Vehicle) -> None:
         ex.drop_path()
 
-    def step(self, ex: Executive, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
+    def step(self, ex: Plans, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
         return None
 
-    def plan_failed(self, ex: Executive, v: Vehicle, why: str, late: bool) -> None:
+    def plan_failed(self, ex: Plans, v: Vehicle, why: str, late: bool) -> None:
         return None
 
     def done(self, v: Vehicle) -> bool:
         return True
 
-    def progress(self, ex: Executive, v: Vehicle) -> Progress:
-        return Progress("stopping" if ex.stop.braking else "surfacing", 1.0)
+    def progress(self, ex: Plans, v: Vehicle) -> Progress:
+        return Progress("stopping" if ex.braking else "surfacing", 1.0)
