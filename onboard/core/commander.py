@@ -15,21 +15,18 @@ from __future__ import annotations
 
 import logging
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 from onboard.core import commands as c
 from onboard.core.executive.monitors import feasibility
 from onboard.core.mission.model import Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, Transition, goal_problem, no_op, transition
 from onboard.core.mission.validate import check_limits
-
-if TYPE_CHECKING:
-    from onboard.core.autopilot import Autopilot
+from onboard.core.vehicle import Core
 
 log = logging.getLogger(__name__)
 
 
-def readiness(ap: Autopilot) -> tuple[bool, str]:
+def readiness(ap: Core) -> tuple[bool, str]:
     """(True, "") when a START would pass the vehicle's own checks, else (False, why): the CAN bus, a valid
     navigation solution, no latched actuator failsafe."""
     if ap.bus_lost:
@@ -41,7 +38,7 @@ def readiness(ap: Autopilot) -> tuple[bool, str]:
     return True, ""
 
 
-def judge(ap: Autopilot, command: c.Command) -> c.Verdict:
+def judge(ap: Core, command: c.Command) -> c.Verdict:
     """The verdict on ``command``, carried out when accepted."""
     state = ap.status.state
     src = getattr(command, "source", "")
@@ -83,7 +80,7 @@ def judge(ap: Autopilot, command: c.Command) -> c.Verdict:
 
 
 def apply(
-    ap: Autopilot,
+    ap: Core,
     event: MissionEvent,
     detail: str = "",
     *,
@@ -121,7 +118,7 @@ def apply(
 
 
 def _event(
-    ap: Autopilot,
+    ap: Core,
     event: MissionEvent,
     detail: str = "",
     goal_index: int | None = None,
@@ -135,7 +132,7 @@ def _event(
     return c.accepted(result.reason) if result.accepted else c.denied(result.reason)
 
 
-def _start(ap: Autopilot, first_goal: int | None, src: str) -> c.Verdict:
+def _start(ap: Core, first_goal: int | None, src: str) -> c.Verdict:
     """START (or RESUME, or mode "mission"): the table's dry run, then the vehicle's readiness."""
     status = ap.status
     if status.state is MissionState.RUNNING and first_goal is not None and first_goal != status.goal_index:
@@ -162,7 +159,7 @@ def _start(ap: Autopilot, first_goal: int | None, src: str) -> c.Verdict:
     return _event(ap, event, src, goal_index=first_goal)
 
 
-def _set_current(ap: Autopilot, index: int) -> c.Verdict:
+def _set_current(ap: Core, index: int) -> c.Verdict:
     why = goal_problem(ap.status, index)
     if why:
         return c.denied(why)
@@ -171,7 +168,7 @@ def _set_current(ap: Autopilot, index: int) -> c.Verdict:
     return c.accepted(f"current goal {index}")
 
 
-def _set_mode(ap: Autopilot, command: c.SetMode) -> c.Verdict:
+def _set_mode(ap: Core, command: c.SetMode) -> c.Verdict:
     """DO_SET_MODE: ``mission`` starts or resumes, ``loiter`` holds, ``surface`` aborts; ``ready`` only when
     nothing moves and nothing is to be acknowledged."""
     src, state = command.source, ap.status.state
@@ -191,7 +188,7 @@ def _set_mode(ap: Autopilot, command: c.SetMode) -> c.Verdict:
     return c.accepted(f"ready ({state.name}): nothing to change")
 
 
-def _bus_lost(ap: Autopilot, reason: str) -> c.Verdict:
+def _bus_lost(ap: Core, reason: str) -> c.Verdict:
     ap.bus_lost = reason or "no reason given"
     what = f"CAN bus lost ({ap.bus_lost})"
     state = ap.status.state
@@ -204,7 +201,7 @@ def _bus_lost(ap: Autopilot, reason: str) -> c.Verdict:
     return verdict
 
 
-def _bus_back(ap: Autopilot) -> c.Verdict:
+def _bus_back(ap: Core) -> c.Verdict:
     if not ap.bus_lost:
         return c.accepted("CAN bus up")
     was, ap.bus_lost = ap.bus_lost, ""
@@ -220,7 +217,7 @@ def _bus_back(ap: Autopilot) -> c.Verdict:
     return c.accepted(f"CAN bus back ({ap.status.state.name})")
 
 
-def _replace(ap: Autopilot, mission: Mission, goals_changed: bool, src: str) -> c.Verdict:
+def _replace(ap: Core, mission: Mission, goals_changed: bool, src: str) -> c.Verdict:
     try:
         mission.validate()
     except MissionError as exc:
@@ -242,7 +239,7 @@ def _replace(ap: Autopilot, mission: Mission, goals_changed: bool, src: str) -> 
     return c.accepted(result.reason)
 
 
-def _set_param(ap: Autopilot, name: str, value: float) -> c.Verdict:
+def _set_param(ap: Core, name: str, value: float) -> c.Verdict:
     from onboard.core import params
 
     try:

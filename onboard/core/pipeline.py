@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from onboard.core import commands as c
 from onboard.core import control, nav
@@ -32,10 +32,8 @@ from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.record import TickRecord
 from onboard.core.safety import failsafe
 from onboard.core.safety.failsafe import FailsafeFlag
+from onboard.core.vehicle import Core
 from onboard.protocol import messages as m
-
-if TYPE_CHECKING:
-    from onboard.core.autopilot import Autopilot
 
 
 @dataclass
@@ -50,7 +48,7 @@ class Pipeline:
         """A new path is flown: the PD's error memory starts afresh (the command it is at stays)."""
         self.controller_state = control.ControllerState(command=self.controller_state.command)
 
-    def tick(self, ap: Autopilot, cache: Mapping[type, Any], now_s: float, dt_s: float) -> TickRecord:
+    def tick(self, ap: Core, cache: Mapping[type, Any], now_s: float, dt_s: float) -> TickRecord:
         """One tick at ``now_s`` (s) of period ``dt_s`` (s) from the latest-value cache of bus messages."""
         cfg = ap.config
         ap.now_s = now_s
@@ -124,7 +122,7 @@ class Pipeline:
             control_debug=control_debug,
         )
 
-    def _failsafes(self, ap: Autopilot, nav_state: nav.NavState) -> FailsafeFlag:
+    def _failsafes(self, ap: Core, nav_state: nav.NavState) -> FailsafeFlag:
         """A command that could not be encoded, the failsafe checks, the actuator node's failsafe: each an
         ABORT (a FAILSAFE event) while the vehicle may move; the flags failing this tick."""
         if ap.encode_fault:
