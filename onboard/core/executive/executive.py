@@ -22,17 +22,13 @@ from onboard.core.executive.loiter import Loiter
 from onboard.core.executive.maneuver import Leg, Maneuver, Vehicle
 from onboard.core.executive.surface import Stop, Surface, arrival_speed_mps
 from onboard.core.mission.state import MissionEvent, MissionState
+from onboard.core.nav.current import CURRENT_BELIEVED_STD_MPS, CURRENT_NOISE_MPS
 from onboard.core.nav.types import NavState
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
 from onboard.core.plans import PlanRequest
 
 log = logging.getLogger(__name__)
-
-#: The current estimate's 1-sigma (m/s) below which planning counts it (``[planner] current_aware``).
-PLAN_CURRENT_STD_MPS = 0.2
-#: Currents slower than this (m/s) are planned as still water (the estimate's noise is not a current).
-PLAN_CURRENT_MIN_MPS = 0.05
 
 
 @dataclass
@@ -153,11 +149,12 @@ class Executive:
     @staticmethod
     def current_mps(nav: NavState) -> float:
         """The estimated water current's speed (m/s) for planning, 0 while the estimate is vaguer than
-        :data:`PLAN_CURRENT_STD_MPS` or the current slower than :data:`PLAN_CURRENT_MIN_MPS`."""
-        if not nav.current_std_mps < PLAN_CURRENT_STD_MPS:
+        :data:`~onboard.core.nav.current.CURRENT_BELIEVED_STD_MPS` or the current slower than
+        :data:`~onboard.core.nav.current.CURRENT_NOISE_MPS`."""
+        if not nav.current_std_mps < CURRENT_BELIEVED_STD_MPS:
             return 0.0
         speed = math.hypot(nav.current_north_mps, nav.current_east_mps)
-        return speed if speed >= PLAN_CURRENT_MIN_MPS else 0.0
+        return speed if speed >= CURRENT_NOISE_MPS else 0.0
 
     def ask_plan(self, v: Vehicle, kind: str, replan: bool = False) -> None:
         """Put a plan request out: ``goal`` to the current goal, ``loiter`` round the last goal."""

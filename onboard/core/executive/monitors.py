@@ -17,7 +17,8 @@ the ``[mission]`` thresholds (:class:`~onboard.core.mission.params.MissionParams
   ``min_made_good_mps`` (its top speed through the water is its speed map at the propeller's limit,
   ``LIM_RPS_MAX``) is refused at START (by the commander, :func:`feasibility`) and, while RUNNING, ends the
   leg once it has lasted a window. The current is judged only when the estimate is good to
-  :data:`CURRENT_STD_MAX_MPS`, and with the benefit of the doubt (its speed less its 1-sigma).
+  :data:`~onboard.core.nav.current.CURRENT_BELIEVED_STD_MPS`, and with the benefit of the doubt (its speed
+  less its 1-sigma).
 
 A monitor that fires ends the leg with ``monitor_action`` (HOLD, or ABORT) and a reason that names the
 figure; the reason reaches the operator as the state's reason and a STATUSTEXT, as every HOLD's does.
@@ -33,12 +34,10 @@ from dataclasses import dataclass, field
 from onboard.core.config import CoreConfig
 from onboard.core.control.pd import ControlParams
 from onboard.core.mission.model import Goal
+from onboard.core.nav.current import CURRENT_BELIEVED_STD_MPS
 from onboard.core.nav.types import NavState
 from onboard.core.planner.path import Path
 
-#: The current estimate's 1-sigma (m/s) below which the feasibility check believes it (the planner's
-#: threshold, ``executive.PLAN_CURRENT_STD_MPS``).
-CURRENT_STD_MAX_MPS = 0.2
 #: Closer than this to the goal (m) the bearing to it means little: no feasibility verdict.
 FEASIBILITY_MIN_DISTANCE_M = 2.0
 #: The start from rest added to a leg's expected time (s; the campaign's allowance too).
@@ -81,9 +80,9 @@ def made_good_mps(current_n_mps: float, current_e_mps: float, bearing_rad: float
 
 def believed_current(nav: NavState) -> tuple[float, float] | None:
     """The current estimate (c_n, c_e) in m/s shrunk by its 1-sigma (the benefit of the doubt), or None
-    while it is vaguer than :data:`CURRENT_STD_MAX_MPS`."""
+    while it is vaguer than :data:`~onboard.core.nav.current.CURRENT_BELIEVED_STD_MPS`."""
     std = nav.current_std_mps
-    if not std < CURRENT_STD_MAX_MPS:
+    if not std < CURRENT_BELIEVED_STD_MPS:
         return None
     c_n, c_e = nav.current_north_mps, nav.current_east_mps
     speed = math.hypot(c_n, c_e)

@@ -29,6 +29,7 @@ from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import ActuatorCommand, ActuatorLimits, saturate
 from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.guidance.guidance import GuidanceReference
+from onboard.core.nav.current import CURRENT_NOISE_MPS
 from onboard.core.nav.types import NavState
 
 #: Below this speed over ground ahead (m/s) the vehicle has stopped: the DVL's noise is centimetres a second.
@@ -62,22 +63,20 @@ RUN_IN_STRAIGHT_1PM = 1e-3
 #: arriving in 0.3-0.5 m/s across the final heading); from 0.2 m/s on the run-in does not slow at all (the
 #: stop after COMPLETE still brakes, and the current carries a stopped vehicle anyway).
 RUN_IN_CURRENT_GAIN = 4.0
-#: Estimated currents up to this (m/s) leave the arrival speed as configured: the estimate's noise in still
-#: water (the planner's own threshold for a current, ``PLAN_CURRENT_MIN_MPS``).
-RUN_IN_CURRENT_MIN_MPS = 0.05
 
 
 def arrival_speed_mps(cfg: CoreConfig, nav: NavState) -> float:
     """The run-in's speed at the last goal (m/s; 0 = no run-in): ``[mission] arrival_speed_mps``, raised
-    by :data:`RUN_IN_CURRENT_GAIN` x the estimated current beyond :data:`RUN_IN_CURRENT_MIN_MPS` (the
-    estimate's value however vague: a current it is still learning is no reason to creep in slowly)."""
+    by :data:`RUN_IN_CURRENT_GAIN` x the estimated current beyond
+    :data:`~onboard.core.nav.current.CURRENT_NOISE_MPS` (the estimate's value however vague: a current it
+    is still learning is no reason to creep in slowly)."""
     arrival = cfg.mission.arrival_speed_mps
     if arrival <= 0.0:
         return 0.0
     current = math.hypot(nav.current_north_mps, nav.current_east_mps)
     if not math.isfinite(current):
         return arrival
-    return arrival + RUN_IN_CURRENT_GAIN * max(current - RUN_IN_CURRENT_MIN_MPS, 0.0)
+    return arrival + RUN_IN_CURRENT_GAIN * max(current - CURRENT_NOISE_MPS, 0.0)
 
 
 def speed_ahead_mps(nav: NavState) -> float:

@@ -22,6 +22,12 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+#: What counts as a current, for every decision that uses the estimate (the planner's current-aware plans,
+#: the feasibility monitor, the run-in): its 1-sigma must be below this (m/s), else it is not believed ...
+CURRENT_BELIEVED_STD_MPS = 0.2
+#: ... and a current slower than this (m/s) is still water (the estimate's noise is not a current).
+CURRENT_NOISE_MPS = 0.05
+
 
 class CurrentFilter(NamedTuple):
     """The estimate (c_n, c_e in m/s NED, u_w in m/s) and its symmetric covariance, upper triangle
