@@ -11,6 +11,9 @@ map). The onboard core never sees it: it speaks metres and radians.
   lat/lon = degrees * :data:`GLOBAL_SCALE`, 1e7) with z = altitude (m, up positive), so depth = -altitude
   in the relative frames (relative to the origin) and origin altitude - altitude in the AMSL ones (as
   ArduSub). :data:`VEHICLE_FRAMES` are the frames the vehicle takes. Yaw (param4) is in degrees, NaN = free.
+- A waypoint's param2 is its acceptance radius (m; the MAVLink spec's "Acceptance radius"): 0 = the
+  vehicle's default (``[mission] arrival_radius_m``); NaN reads as 0 too (what older ground stations, ours
+  before issue 24, sent). Written as the goal's ``radius_m`` (0 when it has none).
 - Projection (:func:`global_to_local`, :func:`local_to_global`): flat earth about the vehicle's origin
   (GPS_GLOBAL_ORIGIN), x = radians(dlat) * R, y = radians(dlon) * R * cos(origin latitude), R =
   :data:`EARTH_RADIUS_M`, dlon wrapped into [-180, 180).
@@ -206,13 +209,13 @@ def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
 
 # ---- plain items <-> MISSION_ITEM_INT ----------------------------------------------------------------
 def goal_item(goal: GoalPose) -> MissionItem:
-    """The local-frame waypoint of a goal (yaw None -> param4 NaN); :class:`EncodingError` if x or y is
-    not encodable."""
+    """The local-frame waypoint of a goal (yaw None -> param4 NaN; param2 its acceptance radius, 0 = the
+    vehicle's default); :class:`EncodingError` if x or y is not encodable."""
     return MissionItem(
         frame=FRAME_LOCAL,
         command=WAYPOINT,
         param1=0.0,
-        param2=math.nan,
+        param2=float(goal.radius_m),
         param3=0.0,
         param4=math.nan if goal.yaw_deg is None else float(goal.yaw_deg),
         x=to_int(goal.x_m, LOCAL_SCALE, "x"),
@@ -239,13 +242,21 @@ def fence_circle_item(lat_deg: float, lon_deg: float, radius_m: float) -> Missio
     return _circle(mavlink.MAV_FRAME_GLOBAL, x, y, radius_m, autocontinue=0)
 
 
+def radius_of_item(item: MissionItem) -> float:
+    """A waypoint's acceptance radius as sent (param2, m): NaN reads as 0, the vehicle's default; any other
+    value as it is (the vehicle's validator judges it)."""
+    return 0.0 if math.isnan(item.param2) else item.param2
+
+
 def goal_of_item(item: MissionItem, origin: Origin | None) -> GoalPose | None:
     """The goal a waypoint item stands for (:func:`item_position`; param4 NaN -> yaw None, degrees as
-    sent, not wrapped); None where :func:`item_position` is."""
+    sent, not wrapped; param2 the acceptance radius, :func:`radius_of_item`); None where
+    :func:`item_position` is."""
     where = item_position(item, origin)
     if where is None:
         return None
-    return GoalPose(*where, yaw_deg=None if math.isnan(item.param4) else item.param4)
+    yaw_deg = None if math.isnan(item.param4) else item.param4
+    return GoalPose(*where, yaw_deg=yaw_deg, radius_m=radius_of_item(item))
 
 
 def circle_of_item(item: MissionItem, origin: Origin | None) -> Circle | None:
@@ -288,6 +299,7 @@ __all__ = [
     "local_problem",
     "local_to_global",
     "obstacle_item",
+    "radius_of_item",
     "scale_of",
     "to_int",
 ]

@@ -5,15 +5,18 @@ fly) and the missions of a campaign spec.
 
     goals:                      # in order; NED metres, depth positive down, yaw in degrees (omit/null = free)
       - {x_m: 15.0, y_m: 0.0, depth_m: 1.0, yaw_deg: 0.0}
+      - {x_m: 40.0, y_m: 5.0, depth_m: 1.0, radius_m: 3.0}   # its acceptance radius (omit/0 = the default)
     obstacles:                  # circles that surround each obstacle
       - {x_m: 5.0, y_m: 3.0, radius_m: 1.5}
 
 The parse is the *format* only: the keys, numbers that are numbers (a YAML boolean or string is not one;
 YAML 1.1 reads ``1e-3`` as a string, which the message says), ``x_m``, ``y_m`` and ``depth_m`` required
-(a missing depth is an error, never 0), ``yaw_deg`` optional. The result is plain data in the file's units
-(:class:`GoalPose`, :class:`Circle`, metres and degrees as written: nothing wrapped, NaN and infinities
-kept). What the values may be (finite, a yaw within +-360 deg, a radius > 0, the operating area, the
-depth limit) is the vehicle's to judge: its mission validator, ``onboard.core.mission.validate``, is the one
+(a missing depth is an error, never 0), ``yaw_deg`` and ``radius_m`` (the goal's acceptance radius, m;
+MAVLink NAV_WAYPOINT param2; 0 or absent = the vehicle's ``[mission] arrival_radius_m``) optional. The
+result is plain data in the file's units (:class:`GoalPose`, :class:`Circle`, metres and degrees as
+written: nothing wrapped, NaN and infinities kept). What the values may be (finite, a yaw within +-360
+deg, a radius > 0, a goal's radius 0 or within MIS_ARRIVE_R_M's range, the operating area, the depth
+limit) is the vehicle's to judge: its mission validator, ``onboard.core.mission.validate``, is the one
 owner of those rules (``auv_common`` imports nothing of ours, so it cannot ask it, and the ground station
 must not guess it: the vehicle answers an upload with its reason).
 
@@ -34,7 +37,9 @@ import yaml
 
 from auv_common.cli import yaml_error_line
 
-GOAL_KEYS = ("x_m", "y_m", "depth_m", "yaw_deg")
+GOAL_KEYS = ("x_m", "y_m", "depth_m", "yaw_deg", "radius_m")
+#: A pose (a campaign's start) is a goal without an acceptance radius.
+POSE_KEYS = GOAL_KEYS[:4]
 CIRCLE_KEYS = ("x_m", "y_m", "radius_m")
 PLAN_KEYS = ("goals", "obstacles")
 #: Why a file of lists in lists in lists ... (past Python's recursion limit) is not read.
@@ -54,6 +59,8 @@ class GoalPose:
     y_m: float
     depth_m: float
     yaw_deg: float | None = None
+    #: The goal's acceptance radius, m (0 = the vehicle's default, ``[mission] arrival_radius_m``).
+    radius_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -135,13 +142,15 @@ def items(key: str, value: Any, parse_one: Callable[[str, Any], T]) -> tuple[T, 
 
 
 def parse_goal(key: str, value: Any, *, yaw_required: bool = False) -> GoalPose:
-    """One goal pose ``{x_m, y_m, depth_m, yaw_deg}``; ``yaw_deg`` may be absent or null (free) unless
-    ``yaw_required`` (then it must be present; null still means None, the caller judges)."""
-    required = GOAL_KEYS if yaw_required else GOAL_KEYS[:3]
-    d = mapping(key, value, GOAL_KEYS, required)
+    """One goal pose ``{x_m, y_m, depth_m, yaw_deg, radius_m}``; ``yaw_deg`` may be absent or null (free)
+    and ``radius_m`` absent (0: the vehicle's default), unless ``yaw_required``: then it is a pose (a
+    campaign's start: ``yaw_deg`` present, null still None, the caller judges; no ``radius_m``)."""
+    allowed, required = (POSE_KEYS, POSE_KEYS) if yaw_required else (GOAL_KEYS, GOAL_KEYS[:3])
+    d = mapping(key, value, allowed, required)
     x_m, y_m, depth_m = (number(join(key, k), d[k]) for k in GOAL_KEYS[:3])
     raw = d.get("yaw_deg")
-    return GoalPose(x_m, y_m, depth_m, None if raw is None else number(join(key, "yaw_deg"), raw))
+    radius_m = number(join(key, "radius_m"), d["radius_m"]) if "radius_m" in d else 0.0
+    return GoalPose(x_m, y_m, depth_m, None if raw is None else number(join(key, "yaw_deg"), raw), radius_m)
 
 
 def parse_circle(key: str, value: Any) -> Circle:
@@ -181,10 +190,12 @@ def load_plan(path: str | Path) -> MissionPlan:
 
 
 def goal_data(goal: GoalPose) -> dict[str, float]:
-    """The YAML mapping of a goal (``yaw_deg`` left out when free)."""
+    """The YAML mapping of a goal (``yaw_deg`` left out when free, ``radius_m`` when 0: the default)."""
     d = {"x_m": goal.x_m, "y_m": goal.y_m, "depth_m": goal.depth_m}
     if goal.yaw_deg is not None:
         d["yaw_deg"] = goal.yaw_deg
+    if goal.radius_m != 0.0:
+        d["radius_m"] = goal.radius_m
     return d
 
 
@@ -200,6 +211,7 @@ __all__ = [
     "CIRCLE_KEYS",
     "GOAL_KEYS",
     "NESTED_TOO_DEEP",
+    "POSE_KEYS",
     "Circle",
     "GoalPose",
     "MissionPlan",

@@ -10,6 +10,7 @@ YAML::
 
     goals:                      # MAV_CMD_NAV_WAYPOINT in MAV_FRAME_LOCAL_NED
       - {x_m: 20.0, y_m: 5.0, depth_m: 2.0, yaw_deg: 90}   # yaw_deg optional (null/absent = planner's choice)
+      - {x_m: 40.0, y_m: 5.0, depth_m: 2.0, radius_m: 3}   # radius_m (param2) optional (absent = default)
     obstacles:                  # MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
       - {x_m: 10.0, y_m: 2.0, radius_m: 3.0}
 
@@ -26,7 +27,8 @@ optional ``geoFence`` (``version 2``, ``circles``, ``polygons``) and ``rallyPoin
 
 - A ``SimpleItem`` is one MAVLink item, as QGC uploads it: ``command``, ``frame``, ``params`` = param1..4,
   x (lat), y (lon), z; ``null`` = NaN; ``autoContinue``. QGC's older form with ``coordinate [lat, lon, alt]``
-  and four params is read too. ``MAV_CMD_NAV_WAYPOINT`` is a goal, ``MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION`` an
+  and four params is read too (a waypoint's param2, QGC's "Acceptance radius", is the goal's radius_m:
+  0 = the vehicle's default). ``MAV_CMD_NAV_WAYPOINT`` is a goal, ``MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION`` an
   obstacle (as in our WPL files).
 - A ``geoFence`` exclusion circle is the fence item QGC uploads for it (``GeoFenceManager::sendToVehicle``):
   ``MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION`` in ``MAV_FRAME_GLOBAL``, param1 = radius (m), z = 0, autocontinue 0.
@@ -103,11 +105,12 @@ class MissionFileError(ValueError):
     """A mission file that cannot be read; the message names the file and the place."""
 
 
-def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None) -> Item:
-    """The local-frame waypoint of a goal (:func:`auv_common.mission_items.goal_item`); a position that
-    MISSION_ITEM_INT cannot carry is a :class:`MissionFileError`."""
+def goal_item(x_m: float, y_m: float, depth_m: float, yaw_deg: float | None, radius_m: float = 0.0) -> Item:
+    """The local-frame waypoint of a goal (:func:`auv_common.mission_items.goal_item`; ``radius_m`` its
+    acceptance radius, param2, 0 = the vehicle's default); a position that MISSION_ITEM_INT cannot carry is
+    a :class:`MissionFileError`."""
     try:
-        return enc.goal_item(GoalPose(x_m, y_m, depth_m, yaw_deg))
+        return enc.goal_item(GoalPose(x_m, y_m, depth_m, yaw_deg, radius_m))
     except enc.EncodingError as exc:
         raise MissionFileError(str(exc)) from None
 
@@ -492,14 +495,16 @@ def to_yaml(goals: list[Item], fences: list[Item]) -> str:
     for it in goals:
         if it.frame == mavlink.MAV_FRAME_LOCAL_NED:
             yaw = None if math.isnan(it.param4) else round(it.param4, 6)
-            out["goals"].append(
-                {
-                    "x_m": it.x / LOCAL_SCALE,
-                    "y_m": it.y / LOCAL_SCALE,
-                    "depth_m": round(it.z, 6),
-                    "yaw_deg": yaw,
-                }
-            )
+            goal: dict[str, Any] = {
+                "x_m": it.x / LOCAL_SCALE,
+                "y_m": it.y / LOCAL_SCALE,
+                "depth_m": round(it.z, 6),
+                "yaw_deg": yaw,
+            }
+            radius_m = enc.radius_of_item(it)
+            if radius_m != 0.0:  # its own acceptance radius (0: the vehicle's default, left out)
+                goal["radius_m"] = round(radius_m, 6)
+            out["goals"].append(goal)
         else:
             out["goals"].append({"raw": list(it.__dict__.values())})
     for it in fences:

@@ -43,7 +43,7 @@ def parse_mission(data: Any, where: str = "mission") -> Mission:
     except mission_yaml.MissionYamlError as exc:
         raise MissionError(exc.reason, f"{where}: {exc}") from None
     goals = tuple(
-        Goal(g.x_m, g.y_m, g.depth_m, None if g.yaw_deg is None else math.radians(g.yaw_deg))
+        Goal(g.x_m, g.y_m, g.depth_m, None if g.yaw_deg is None else math.radians(g.yaw_deg), g.radius_m)
         for g in plan.goals
     )
     obstacles = tuple(Obstacle(c.x_m, c.y_m, c.radius_m) for c in plan.obstacles)

@@ -225,12 +225,14 @@ def goal_yaw_problem(item: MissionItem, limits: MissionLimits, index: int) -> Pr
 
 def goal_from_item(item: MissionItem, limits: MissionLimits, *, wrap: bool = True) -> Goal:
     """The goal pose of a checked waypoint item (yaw degrees -> radians, wrapped into (-pi, pi] unless
-    ``wrap`` is False; NaN -> None)."""
+    ``wrap`` is False; NaN -> None; param2 the acceptance radius, NaN or 0 = the default:
+    :func:`auv_common.mission_items.radius_of_item`)."""
     x_m, y_m, depth_m = item_position(item, limits)
     yaw_rad = None if math.isnan(item.param4) else math.radians(item.param4)
     if wrap and yaw_rad is not None:
         yaw_rad = wrap_pi(yaw_rad)
-    return Goal(x_m=x_m, y_m=y_m, depth_m=depth_m, yaw_rad=yaw_rad)
+    radius_m = enc.radius_of_item(item)
+    return Goal(x_m=x_m, y_m=y_m, depth_m=depth_m, yaw_rad=yaw_rad, radius_m=radius_m)
 
 
 def obstacle_from_item(item: MissionItem, limits: MissionLimits) -> Obstacle:
@@ -255,7 +257,9 @@ def items_from_mission(mission: Mission) -> tuple[tuple[MissionItem, ...], tuple
     door refuses it first, :mod:`onboard.app.mission_file`)."""
     goals = tuple(
         enc.goal_item(
-            GoalPose(g.x_m, g.y_m, g.depth_m, None if g.yaw_rad is None else math.degrees(g.yaw_rad))
+            GoalPose(
+                g.x_m, g.y_m, g.depth_m, None if g.yaw_rad is None else math.degrees(g.yaw_rad), g.radius_m
+            )
         )
         for g in mission.goals
     )

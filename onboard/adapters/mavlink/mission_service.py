@@ -96,6 +96,7 @@ FIELD_CODES: dict[str, int] = {
     "depth": mavlink.MAV_MISSION_INVALID_PARAM7,
     "yaw": mavlink.MAV_MISSION_INVALID_PARAM4,
     "radius": mavlink.MAV_MISSION_INVALID_PARAM1,
+    "arrival_radius": mavlink.MAV_MISSION_INVALID_PARAM2,
     "count": mavlink.MAV_MISSION_NO_SPACE,
 }
 _TYPE_NAMES = {TYPE_MISSION: "mission", TYPE_FENCE: "fence", TYPE_ALL: "mission and fence"}

@@ -21,6 +21,7 @@ from onboard.core.executive.goto import Goto
 from onboard.core.executive.loiter import Loiter
 from onboard.core.executive.maneuver import Leg, Maneuver, Vehicle
 from onboard.core.executive.surface import Stop, Surface, arrival_speed_mps
+from onboard.core.mission.model import goal_radius_m
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.nav.current import CURRENT_BELIEVED_STD_MPS, CURRENT_NOISE_MPS
 from onboard.core.nav.types import NavState
@@ -85,7 +86,11 @@ class Executive:
         in a current) at the goal, so the end can stop (:mod:`~onboard.core.executive.surface`)."""
         assert self.path is not None
         mission = v.config.mission
-        last = self.path_kind == "goal" and self.path_goal_index == len(v.mission.goals) - 1
+        goals = v.mission.goals
+        to_goal = self.path_kind == "goal" and 0 <= self.path_goal_index < len(goals)
+        last = to_goal and self.path_goal_index == len(goals) - 1
+        # the goal's own acceptance radius (else the default) ends its path
+        radius_m = goal_radius_m(goals[self.path_goal_index], mission.arrival_radius_m) if to_goal else None
         reference, self.guidance_state, debug = guidance.step(
             nav,
             self.path,
@@ -94,6 +99,7 @@ class Executive:
             dt_s,
             arrival_speed_mps=arrival_speed_mps(v.config, nav) if last else 0.0,
             run_in_decel_mps2=mission.run_in_decel_mps2,
+            arrival_radius_m=radius_m,
         )
         return Leg(reference, debug)
 

@@ -5,8 +5,9 @@ It owns, for the goal in force (``status.goal_index``):
 - the plan: asked for at START (afresh, from where the vehicle is), after each goal reached (the next goal,
   from here), after a miss (the same goal pose) and when the water current turns out other than planned for;
 - arrival: a goal is reached only when the estimate crosses the goal line (guidance's ``arrived``) within
-  ``[mission] arrival_radius_m`` of the goal, and the estimate is itself that good (its position 1-sigma no
-  coarser than the radius; else HOLD: the arrival cannot be confirmed);
+  the goal's acceptance radius (its own ``radius_m``, else ``[mission] arrival_radius_m``:
+  :func:`~onboard.core.mission.model.goal_radius_m`) of the goal, and the estimate is itself that good
+  (its position 1-sigma no coarser than the radius; else HOLD: the arrival cannot be confirmed);
 - misses: farther off it is a miss, re-planned from where the vehicle is to the same goal pose, up to
   ``max_tries`` attempts, then HOLD with the reason;
 - re-plans on current: a path planned for one current (``[planner] current_aware``) is planned again when
@@ -30,6 +31,7 @@ from dataclasses import dataclass, field
 from onboard.core.commands import Severity
 from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.executive.monitors import LegMonitor
+from onboard.core.mission.model import goal_radius_m
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.nav.types import NavState
 from onboard.core.plans import current_radius_m
@@ -120,7 +122,7 @@ class Goto:
         index = v.status.goal_index
         goal = v.mission.goals[index]
         miss_m = math.hypot(goal.x_m - nav.x_m, goal.y_m - nav.y_m)
-        radius = v.config.mission.arrival_radius_m
+        radius = goal_radius_m(goal, v.config.mission.arrival_radius_m)
         std_m = nav.position_std_m
         if not std_m <= radius:  # the estimate itself is less certain than the precision to claim
             v.apply(

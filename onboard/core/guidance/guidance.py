@@ -272,6 +272,7 @@ def step(
     *,
     arrival_speed_mps: float = 0.0,
     run_in_decel_mps2: float = 0.0,
+    arrival_radius_m: float | None = None,
 ) -> tuple[GuidanceReference, GuidanceState, GuidanceDebug]:
     """One guidance step of ``dt_s`` seconds (>= 0) on ``path`` for the vehicle state ``nav``.
 
@@ -281,6 +282,9 @@ def step(
     after it (:mod:`onboard.core.executive.surface`); in ``track`` the moving reference moves at that speed
     (a vehicle that lags catches it up over the run-in, not at the goal: it used to arrive at 1.3 m/s and
     glide 20 m) and falls at most :data:`RUN_IN_LAG_M` behind the vehicle.
+
+    ``arrival_radius_m``: the arrival distance of this path's end when its goal gives its own (the
+    executive resolves it, :func:`onboard.core.mission.model.goal_radius_m`); None = ``params``'.
     """
     dt_s = max(0.0, dt_s) if math.isfinite(dt_s) else 0.0
     mode = params.mode
@@ -402,7 +406,8 @@ def step(
     end = path.sample(length)  # cached by the path
     if nav_ok:
         dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
-        at_end = dist_end <= params.arrival_radius_m and (
+        radius_m = params.arrival_radius_m if arrival_radius_m is None else arrival_radius_m
+        at_end = dist_end <= radius_m and (
             abs(yaw_error(end.yaw_rad, course_a)) <= params.arrival_yaw_tol_rad
         )
         arrived = state.arrived or at_end or s_proj >= length

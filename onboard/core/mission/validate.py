@@ -9,7 +9,9 @@ Rules (every limit comes from :class:`~onboard.core.config.CoreConfig`; there is
    not above the surface (>= 0, positive down); a goal's yaw is
    None (free; NaN on the wire) or within +-360 deg (:data:`YAW_LIMIT_RAD`), judged as the door received
    it, before any wrap into (-180, 180] (:func:`check_goal_values`, which every door asks: MAVLink items,
-   mission files, persisted plans, campaign specs).
+   mission files, persisted plans, campaign specs). A goal's acceptance radius (``radius_m``; MAVLink
+   param2) is 0 (the vehicle's default, ``[mission] arrival_radius_m``) or within that parameter's declared
+   range (:func:`goal_radius_bounds_m`, one owner of the bounds: ``MIS_ARRIVE_R_M``'s declaration).
 2. Counts: ``1 <= len(goals) <= [mission] max_goals`` and ``len(obstacles) <= [mission] max_obstacles``.
 3. Goals: x and y inside the failsafe operating rectangle ``[failsafe] area_x_min_m..area_x_max_m`` x
    ``area_y_min_m..area_y_max_m`` (a goal outside it would abort the run on arrival); depth in
@@ -43,20 +45,23 @@ encode (the ``--mission`` file, :mod:`onboard.app.mission_file`).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from auv_common.config import declared_bounds
 from onboard.core.config import CoreConfig
 from onboard.core.mission.model import Goal, Mission, Obstacle
+from onboard.core.mission.params import MissionParams
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.geometry import point_inside
 from onboard.core.planner.path import Path
 from onboard.core.planner.planner import inflate, plan
 
 Item = Literal["goal", "obstacle", "mission"]
-Field = Literal["x", "y", "depth", "yaw", "radius", "count", "plan", "format"]
+Field = Literal["x", "y", "depth", "yaw", "radius", "arrival_radius", "count", "plan", "format"]
 #: ``Problem.index`` of a problem of the whole mission (``item == "mission"``).
 MISSION_INDEX = -1
 
@@ -149,19 +154,55 @@ def _check_counts(mission: Mission, config: CoreConfig) -> list[Problem]:
 
 
 def _not_finite(item: Item, index: int, obj: Goal | Obstacle) -> list[Problem]:
-    return [
-        Problem(
-            item, index, _FIELD_OF[name], f"{_FIELD_OF[name]} is not a finite number: {getattr(obj, name)!r}"
+    out = []
+    for name in obj.invalid_fields():
+        field = _FIELD_OF[name]
+        if item == "goal" and field == "radius":  # a goal's radius is its acceptance radius (param2)
+            field = "arrival_radius"
+        out.append(Problem(item, index, field, f"{field} is not a finite number: {getattr(obj, name)!r}"))
+    return out
+
+
+@functools.cache
+def goal_radius_bounds_m() -> tuple[float, float]:
+    """The range of a goal's own acceptance radius (m): ``[mission] arrival_radius_m``'s declared range
+    (MIS_ARRIVE_R_M), so a goal may ask for exactly what the default may be set to."""
+    return declared_bounds(MissionParams(), "arrival_radius_m")
+
+
+def _radius_problem(index: int, radius_m: float) -> Problem | None:
+    """A goal's acceptance radius: 0 (the default) or within :func:`goal_radius_bounds_m`, with why not."""
+    if radius_m == 0.0:
+        return None
+    lo, hi = goal_radius_bounds_m()
+    text = f"arrival radius {_fmt(radius_m)} m"
+    if radius_m < 0.0:
+        why = f"{text} is negative (0 = the vehicle's default, [mission] arrival_radius_m)"
+    elif radius_m < lo:
+        why = (
+            f"{text} is below {_fmt(lo)} m, the smallest that means one (the estimate is good to decimetres "
+            "at best: every arrival would be a miss; 0 = the vehicle's default)"
         )
-        for name in obj.invalid_fields()
-    ]
+    elif radius_m > hi:
+        why = (
+            f"{text} is above {_fmt(hi)} m, the widest MIS_ARRIVE_R_M allows (a goal 'reached' that far off "
+            "says nothing of where the vehicle is: a unit or typing mistake)"
+        )
+    else:
+        return None
+    return Problem("goal", index, "arrival_radius", why)
 
 
 def check_goal_values(index: int, goal: Goal) -> list[Problem]:
     """The configuration-free rules of one goal: every number finite; the depth not above the surface
-    (>= 0, positive down); the yaw None (free) or within +-:data:`YAW_LIMIT_RAD`. A door asks it with the
-    yaw as received (degrees to radians, not wrapped)."""
+    (>= 0, positive down); the yaw None (free) or within +-:data:`YAW_LIMIT_RAD`; the acceptance radius 0
+    (the default) or within :func:`goal_radius_bounds_m`. A door asks it with the yaw as received (degrees
+    to radians, not wrapped)."""
     out = _not_finite("goal", index, goal)
+    if "radius_m" not in goal.invalid_fields():
+        radius = _radius_problem(index, goal.radius_m)
+        if radius is not None:
+            out.append(radius)
     if "depth_m" not in goal.invalid_fields() and goal.depth_m < 0.0:
         out.append(Problem("goal", index, "depth", f"depth {_fmt(goal.depth_m)} m is above the surface"))
     yaw = goal.yaw_rad
@@ -450,4 +491,5 @@ __all__ = [
     "check_limits",
     "check_mission",
     "check_obstacle_values",
+    "goal_radius_bounds_m",
 ]

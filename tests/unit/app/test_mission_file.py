@@ -73,7 +73,7 @@ def test_several_problems_give_the_first_and_the_count(tmp_path: Path) -> None:
         ("goals:\n  - {x_m: .inf, y_m: 0, depth_m: 1}\n", "goal 0: x is not a finite number"),
         (
             "goals:\n  - {x_m: 1, y_m: 0, depth_m: 1, speed: 2}\n",
-            r"goals\[0\]\.speed: unknown key \(known: depth_m, x_m, y_m, yaw_deg\)",
+            r"goals\[0\]\.speed: unknown key \(known: depth_m, radius_m, x_m, y_m, yaw_deg\)",
         ),
         ("goals: {x_m: 1}\n", "goals: expected a list"),
         ("waypoints: []\n", "waypoints: unknown key"),

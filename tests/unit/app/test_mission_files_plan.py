@@ -328,7 +328,8 @@ def test_a_written_plan_has_every_key_qgc_requires() -> None:
         assert item["type"] == "SimpleItem" and item["doJumpId"] == n
         assert isinstance(item["frame"], int) and isinstance(item["command"], int)
         assert isinstance(item["autoContinue"], bool) and len(item["params"]) == 7
-    assert mission["items"][0]["params"][1] is None  # NaN is null
+    assert mission["items"][1]["params"][3] is None  # NaN is null (a free yaw)
+    assert mission["items"][0]["params"][1] == 0.0  # param2, the acceptance radius: 0 = the vehicle's default
     # AND the local obstacle is a SimpleItem (a QGC circle is lat/lon only), the QGC circle a circle
     assert [(i["command"], i["frame"]) for i in mission["items"]] == [(16, 1), (16, REL), (EXCLUSION, 1)]
     fence = plan["geoFence"]
