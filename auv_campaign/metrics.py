@@ -15,7 +15,8 @@ Added here:
   cross-track within it;
 - ``completed``: the vehicle said COMPLETE; ``arrived``: the truth crossed the last goal's line;
 - ``false_complete``: when the onboard first reported COMPLETE, the truth was farther from the last goal than
-  the onboard's own ``[mission] arrival_radius_m``;
+  its acceptance radius: the goal's own (the spec's ``radius_m``), else the onboard's ``[mission]
+  arrival_radius_m``; a goal with its own radius is reached (``success``) within it (:func:`judge_goals`);
 - the end (the first COMPLETE, HOLD or ABORT): ``end_state``, ``end_time_s``, ``glide_after_end_m`` (the
   horizontal distance travelled from then to the end of the run) and ``max_depth_after_end_m``;
 - ``min_clearance_m``: the least distance from the truth to an obstacle's edge (negative: inside);
@@ -81,12 +82,18 @@ def judge_goals(
     """Every goal judged on the truth, in order (one dict each: ``index``, ``closest_m`` and
     ``closest_t_s`` (the closest approach, horizontal, from the previous goal's crossing to this one's, or
     to the end), ``arrived`` (its line crossed), ``arrival_t_s``, ``position_error_m``,
+    complete_row: int | None = None,
     ``course_error_deg``, ``reached`` (arrived within the spec's position and course bounds)).
 
     ``legs`` are the planned legs' polylines (``[[x_m, y_m, yaw_deg], ...]``, one per goal). An
     intermediate goal is judged at its first crossing within the bounds, else its closest crossing (a miss
     and a second approach cross twice); the next goal is searched from there. The last goal is ``last``
-    (:func:`hil_sim.metrics.compute_metrics` at the crossing the vehicle claimed)."""
+    (:func:`hil_sim.metrics.compute_metrics` at the crossing the vehicle claimed).
+
+    A goal with its own acceptance radius (the spec's ``radius_m``) is judged as the vehicle judges it:
+    within that radius, by position (its heading is guidance's arrival tolerance): an intermediate one at
+    its closest approach, the last where the vehicle said COMPLETE (``complete_row``; it need not cross the
+    goal line: arriving within the radius is the arrival)."""
     out: list[dict[str, Any]] = []
     start = 0
     goals = spec.mission.goals
@@ -95,6 +102,12 @@ def judge_goals(
             arrived = bool(last["completed"])
             hit: dict[str, Any] | None = (
                 {"row": last["arrival_row"], "t_s": last["arrival_time_s"],
+        radius_m = spec.mission.goal_radius_m(i)
+        if radius_m > 0.0:
+            last_goal = i == len(goals) - 1
+            out.append(_judge_by_radius(rows, start, i, (gx, gy), radius_m, last_goal, complete_row))
+            start = out[-1].pop("row")
+            continue
                  "position_error_m": last["final_position_error_m"],
                  "course_error_deg": last["final_course_error_deg"]} if arrived else None
             )  # fmt: skip
@@ -123,6 +136,36 @@ def _within(spec: RunSpec, error_m: float, course_deg: float | None) -> bool:
     """Within the spec's success bounds of position (m) and course (deg; nan or None: not judged, fails)."""
     return (
         error_m <= spec.success_position_m
+def _judge_by_radius(
+    rows: list[dict[str, float]],
+    start: int,
+    index: int,
+    goal_xy: tuple[float, float],
+    radius_m: float,
+    last: bool,
+    complete_row: int | None,
+) -> dict[str, Any]:
+    """:func:`judge_goals`' figures of a goal with its own acceptance radius (and ``row``, where the next
+    goal is searched from)."""
+    gx, gy = goal_xy
+    closest_m, closest_t = _closest(rows, start, len(rows), gx, gy)
+    k: int | None
+    if last:
+        k = complete_row
+    else:
+        span = range(start, len(rows)) if start < len(rows) else range(len(rows) - 1, len(rows))
+        k = min(span, key=lambda j: math.hypot(rows[j]["x_m"] - gx, rows[j]["y_m"] - gy))
+    at = None if k is None else rows[k]
+    error = None if at is None else math.hypot(at["x_m"] - gx, at["y_m"] - gy)
+    reached = error is not None and error <= radius_m
+    row = k if k is not None and not last else start
+    return {
+        "index": index, "closest_m": closest_m, "closest_t_s": closest_t, "arrived": reached,
+        "arrival_t_s": None if at is None else at["t_s"], "position_error_m": error,
+        "course_error_deg": None, "radius_m": radius_m, "reached": reached, "row": row,
+    }  # fmt: skip
+
+
         and course_deg is not None
         and math.isfinite(course_deg)
         and abs(course_deg) <= spec.success_course_deg
@@ -192,7 +235,7 @@ def run_row(
         rms_cross_track_m=_finite(met["rms_cross_track_m"]),
         time_to_goal_s=met["arrival_time_s"] if met["completed"] else None,
     )
-    goal_figures = judge_goals(spec, rows, legs if legs is not None else [samples], met)
+    goal_figures = judge_goals(spec, rows, legs if legs is not None else [samples], met, complete_at)
     row["goal_figures"] = goal_figures
     row["goals_reached"] = sum(1 for g in goal_figures if g["reached"])
     row["max_goal_closest_m"] = max(g["closest_m"] for g in goal_figures)
@@ -216,21 +259,29 @@ def run_row(
     first_complete = truth[complete_at] if complete_at is not None else None
     if first_complete is not None:
         miss_m = math.hypot(first_complete[_X] - gx, first_complete[_Y] - gy)
-        row["false_complete"] = miss_m > arrival_radius_m
+        # the radius the vehicle judged by: the goal's own, else its [mission] arrival_radius_m
+        row["false_complete"] = miss_m > (last_radius_m if last_radius_m > 0.0 else arrival_radius_m)
     clear = row["min_clearance_m"] is None or row["min_clearance_m"] >= 0.0
     bound = spec.success_cross_track_m
     on_path = bound is None or (row["max_cross_track_m"] is not None and row["max_cross_track_m"] <= bound)
     row["success"] = bool(
-        met["completed"]
+        last_ok
         and row["completed"]
         and final_state == "COMPLETE"
         and not time_limit_reached
         and not row["false_complete"]
-        and met["final_position_error_m"] <= spec.success_position_m
-        and course is not None
-        and abs(course) <= spec.success_course_deg
         and row["goals_reached"] == len(goal_figures)
         and on_path
         and clear
     )
     return row
+    last_radius_m = spec.mission.goal_radius_m(len(spec.mission.goals) - 1)
+    # the last goal at its line crossing within the spec's bounds; one with its own radius by that radius
+    last_ok = (
+        goal_figures[-1]["reached"]
+        if last_radius_m > 0.0
+        else met["completed"]
+        and met["final_position_error_m"] <= spec.success_position_m
+        and course is not None
+        and abs(course) <= spec.success_course_deg
+    )

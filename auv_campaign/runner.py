@@ -140,7 +140,10 @@ def _bus_limits() -> BusLimits:
 
 def mission_of(spec: RunSpec) -> Mission:
     mis = spec.mission
-    goals = tuple(Goal(x, y, d, None if yaw is None else math.radians(yaw)) for x, y, d, yaw in mis.goals)
+    goals = tuple(
+        Goal(x, y, d, None if yaw is None else math.radians(yaw), mis.goal_radius_m(i))
+        for i, (x, y, d, yaw) in enumerate(mis.goals)
+    )
     return Mission(goals, tuple(Obstacle(x, y, r) for x, y, r in mis.obstacles))
 
 

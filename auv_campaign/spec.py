@@ -5,7 +5,8 @@
     name: turn-in-current
     missions:                         # each with its own start and goals; optional name (default m0, m1, ...)
       - start: {x_m: -15, y_m: 5, depth_m: 1, yaw_deg: 0}
-        goals: [{x_m: 10, y_m: -2, depth_m: 1, yaw_deg: 270}]   # yaw_deg optional / null = free heading
+        goals: [{x_m: 10, y_m: -2, depth_m: 1, yaw_deg: 270}]   # yaw_deg optional / null = free heading;
+                                      # radius_m optional: the goal's acceptance radius (0 = the default)
         obstacles: [{x_m: 0, y_m: 3, radius_m: 1.5}]           # optional
     random_missions: {count: 50, seed: 7, area_m: 60, obstacles: [0, 5], radius_m: [1, 4]}   # optional
     sweep:                            # the product of every axis; each optional, defaults below
@@ -31,7 +32,9 @@ axis) <= 1000000 (:data:`MAX_RUNS`).
 A mission's goals and obstacles are in the mission file format, read by its one parser
 (:mod:`auv_common.mission_yaml`), and their values judged by the vehicle's own rules
 (``onboard.core.mission.validate.check_goal_values`` / ``check_obstacle_values``: finite, a goal's depth
->= 0 and yaw within +-360 deg, a radius > 0). Depths are >= 0 (positive down: a start, goal or random depth
+>= 0 and yaw within +-360 deg, a goal's radius_m 0 or within MIS_ARRIVE_R_M's range, an obstacle's radius
+> 0). A goal's own radius is sent to the vehicle (its mission file) and judges the run (success,
+false_complete: :mod:`auv_campaign.metrics`). Depths are >= 0 (positive down: a start, goal or random depth
 above the surface is refused). A current's
 direction is normalised to [0, 360) deg, and to 0 when its speed is 0 (:func:`normalise_current`), before
 duplicate detection, labels and run ids: ``[0.1, 360]`` is ``[0.1, 0]``, ``[0, 20]`` is ``[0, 0]``,
@@ -92,7 +95,10 @@ _SWEEP_KEYS = ("seed", "current", "profile", "onboard", "vehicle")
 _MISSION_KEYS = ("name", "start", "goals", "obstacles")
 T = TypeVar("T")
 #: The YAML key of each field a mission validator problem names (``Problem.field``).
-_KEY_OF_FIELD = {"x": "x_m", "y": "y_m", "depth": "depth_m", "yaw": "yaw_deg", "radius": "radius_m"}
+_KEY_OF_FIELD = {
+    "x": "x_m", "y": "y_m", "depth": "depth_m", "yaw": "yaw_deg",
+    "radius": "radius_m", "arrival_radius": "radius_m",
+}  # fmt: skip
 _RANDOM_KEYS = ("count", "seed", "area_m", "obstacles", "radius_m", "depth_m", "goals", "min_distance_m")
 _SUCCESS_KEYS = ("position_m", "course_deg", "cross_track_m")
 #: The default of ``observe_after_end_s`` (simulated s after the end: a glide, a sink, a collision show).
@@ -133,7 +139,8 @@ class MissionSpec:
     """One mission: a start pose, goals and obstacle circles (metres, degrees; depth positive down).
 
     ``start`` is (x_m, y_m, depth_m, yaw_deg); each goal (x_m, y_m, depth_m, yaw_deg or None = free arrival
-    heading); each obstacle (x_m, y_m, radius_m).
+    heading); each obstacle (x_m, y_m, radius_m). ``goal_radii_m``: each goal's acceptance radius (m; 0 =
+    the vehicle's ``[mission] arrival_radius_m``), empty when no goal gives one (:meth:`goal_radius_m`).
     """
 
     name: str
@@ -144,14 +151,22 @@ class MissionSpec:
     def to_mission_file(self) -> dict[str, Any]:
         """The goals and obstacles in the mission file format (:mod:`auv_common.mission_yaml`)."""
         plan = mission_yaml.MissionPlan(
-            tuple(mission_yaml.GoalPose(*g) for g in self.goals),
+            tuple(
+                mission_yaml.GoalPose(*g, radius_m=self.goal_radius_m(i)) for i, g in enumerate(self.goals)
+            ),
             tuple(mission_yaml.Circle(*o) for o in self.obstacles),
         )
         return mission_yaml.plan_data(plan)
+    goal_radii_m: tuple[float, ...] = ()
+
+    def goal_radius_m(self, index: int) -> float:
+        """Goal ``index``'s own acceptance radius as the spec gives it (m; 0 = the vehicle's default)."""
+        return self.goal_radii_m[index] if index < len(self.goal_radii_m) else 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: ``{"name", "start": [4], "goals": [[4]...], "obstacles": [[3]...]}``."""
-        return {
+        """JSON-ready: ``{"name", "start": [4], "goals": [[4]...], "obstacles": [[3]...]}`` and
+        ``"goal_radii_m": [...]`` when a goal gives its own radius."""
+        d: dict[str, Any] = {
             "name": self.name,
             "start": list(self.start),
             "goals": [list(g) for g in self.goals],
@@ -165,6 +180,9 @@ class MissionSpec:
         return MissionSpec(
             name=str(d["name"]),
             start=(sx, sy, sd, syaw),
+        if any(self.goal_radii_m):
+            d["goal_radii_m"] = list(self.goal_radii_m)
+        return d
             goals=tuple(
                 (float(x), float(y), float(z), None if yaw is None else float(yaw))
                 for x, y, z, yaw in d["goals"]
@@ -178,6 +196,7 @@ def _freeze(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return tuple(_freeze(v) for v in value)
     return value
+            goal_radii_m=tuple(float(r) for r in d.get("goal_radii_m", ())),
 
 
 def _thaw(value: Any) -> Any:
@@ -583,17 +602,18 @@ def _not_above_surface(key: str, depth_m: float) -> None:
         )
 
 
-def _goal(key: str, index: int, value: Any) -> tuple[float, float, float, float | None]:
-    """A goal pose in the mission format; its values judged by the onboard's one rule
-    (``check_goal_values``: finite, depth >= 0, a yaw NaN or within +-360 deg), so a spec refuses what the
+def _goal(key: str, index: int, value: Any) -> mission_yaml.GoalPose:
+    """A goal pose in the mission format (with its acceptance radius ``radius_m``, 0 = the vehicle's
+    default); its values judged by the onboard's one rule (``check_goal_values``: finite, depth >= 0, a yaw
+    NaN or within +-360 deg, a radius 0 or within MIS_ARRIVE_R_M's range), so a spec refuses what the
     vehicle would."""
     from onboard.core.mission.model import Goal
     from onboard.core.mission.validate import check_goal_values
 
     g = _mission_format(mission_yaml.parse_goal, key, value)
     yaw_rad = None if g.yaw_deg is None else math.radians(g.yaw_deg)
-    _refuse_problems(key, check_goal_values(index, Goal(g.x_m, g.y_m, g.depth_m, yaw_rad)))
-    return g.x_m, g.y_m, g.depth_m, g.yaw_deg
+    _refuse_problems(key, check_goal_values(index, Goal(g.x_m, g.y_m, g.depth_m, yaw_rad, g.radius_m)))
+    return g
 
 
 def _obstacle(key: str, index: int, value: Any) -> tuple[float, float, float]:
@@ -611,7 +631,7 @@ def _mission(key: str, value: Any, default_name: str) -> MissionSpec:
     item = _mapping(key, value, _MISSION_KEYS, ("start", "goals"))
     name = _name(_join(key, "name"), item["name"]) if "name" in item else default_name
     start = _start(_join(key, "start"), item["start"])
-    goals = tuple(
+    poses = tuple(
         _goal(f"{key}.goals[{i}]", i, g)
         for i, g in enumerate(_list(_join(key, "goals"), item["goals"], non_empty=True))
     )
@@ -619,7 +639,9 @@ def _mission(key: str, value: Any, default_name: str) -> MissionSpec:
         _obstacle(f"{key}.obstacles[{i}]", i, raw)
         for i, raw in enumerate(_list(_join(key, "obstacles"), item.get("obstacles") or []))
     )
-    return MissionSpec(name, start, goals, obstacles)
+    goals = tuple((g.x_m, g.y_m, g.depth_m, g.yaw_deg) for g in poses)
+    radii = tuple(g.radius_m for g in poses) if any(g.radius_m for g in poses) else ()
+    return MissionSpec(name, start, goals, obstacles, radii)
 
 
 def _range(key: str, value: Any, *, integer: bool) -> tuple[Any, Any]:

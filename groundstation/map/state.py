@@ -34,6 +34,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from auv_common import mavlink_ftp as ftp
+from auv_common.mission_items import radius_of_item
 from groundstation import mission_files
 from groundstation.messages import Msg, StatusText, StatusTextAssembler, state_from_heartbeat
 from groundstation.mission_client import Item
@@ -101,8 +102,9 @@ def _metres(value: float, digits: int) -> float | None:
 def goals_of(items: Sequence[Item], origin: mission_files.Origin | None = None) -> list[dict[str, Any]]:
     """The goals of a mission plan: the waypoints with a place in local NED (local ones; global ones about
     ``origin``, :func:`groundstation.mission_files.local_ned`) as ``{seq, index, x_m, y_m, depth_m,
-    yaw_deg}``: ``seq`` the MAVLink seq, ``index`` the goal index (seq less :func:`home_offset`), yaw None
-    when the planner chooses it, a number that is not finite None. A home placeholder, items of other
+    yaw_deg, radius_m}``: ``seq`` the MAVLink seq, ``index`` the goal index (seq less :func:`home_offset`),
+    yaw None when the planner chooses it, ``radius_m`` the goal's acceptance radius (param2; 0 = the
+    vehicle's default), a number that is not finite None. A home placeholder, items of other
     commands and global items without an origin are not drawn."""
     offset = home_offset(items)
     out = []
@@ -121,6 +123,7 @@ def goals_of(items: Sequence[Item], origin: mission_files.Origin | None = None) 
                 "y_m": _metres(y_m, 4),
                 "depth_m": _metres(depth_m, 6),
                 "yaw_deg": _metres(it.param4, 6),
+                "radius_m": _metres(radius_of_item(it), 6),
             }
         )
     return out

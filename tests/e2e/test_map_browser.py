@@ -515,6 +515,30 @@ def test_a_qgc_plan_is_drawn_about_the_origin_and_numbered_from_its_first_goal(b
         assert console_errors(browser) == []
 
 
+def test_a_goals_acceptance_radius_is_drawn_as_a_circle_of_that_radius(browser: Any) -> None:
+    # GIVEN the vehicle's plan: a goal with its own 3.5 m acceptance radius (param2), one with the default
+    mission = [goal_item(20.0, 5.0, 1.0, 90.0, radius_m=3.5), goal_item(40.0, 5.0, 1.0, None)]
+    with serving(ScriptedClient(mission=mission, current=(0, 2))) as url:
+        # WHEN the page is opened
+        open_map(browser, url)
+        # THEN the first goal has a circle of 3.5 m round it, in metres (east, -north) like the obstacles
+        circles = wait_for(
+            lambda: browser.execute_script(
+                """return [...document.querySelectorAll('#goal-radii circle.goal-radius')].map(c =>
+                    ['cx', 'cy', 'r', 'data-radius-m', 'data-index'].map(k => Number(c.getAttribute(k))));"""
+            ),
+            5.0,
+            "a radius drawn",
+        )
+        assert circles == [[5.0, -20.0, 3.5, 3.5, 0.0]]
+        # AND the goal's title says it; the other goal arrives within the vehicle's default
+        titles = browser.execute_script(
+            "return [...document.querySelectorAll('#goals title')].map(t => t.textContent);"
+        )
+        assert "radius 3.5 m" in titles[0] and "radius: the vehicle's" in titles[1], titles
+        assert console_errors(browser) == []
+
+
 def test_the_link_badge_says_when_no_update_came_for_3_s(browser: Any) -> None:
     # GIVEN a page that got its first picture (the vehicle in it), and then no update (the server pushes none)
     client = ScriptedClient()

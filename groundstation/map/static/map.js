@@ -121,6 +121,20 @@
     }
   }
 
+  /* Each goal's own acceptance radius (MAVLink param2) as a circle in metres; a goal without one arrives
+   * within the vehicle's default (MIS_ARRIVE_R_M), not drawn. */
+  function drawGoalRadii() {
+    const g = $("goal-radii");
+    g.replaceChildren();
+    for (const goal of S.plan.goals.filter(drawable.goal)) {
+      if (!(finite(goal.radius_m) && goal.radius_m > 0)) continue;
+      el("circle", {
+        class: "goal-radius", cx: goal.y_m, cy: -goal.x_m, r: goal.radius_m, "vector-effect": "non-scaling-stroke",
+        "data-index": goal.index, "data-x-m": goal.x_m, "data-y-m": goal.y_m, "data-radius-m": goal.radius_m,
+      }, g);
+    }
+  }
+
   function drawPath() {
     const p = $("path");
     const pts = S.path ? S.path.points_m : [];
@@ -159,7 +173,7 @@
       const m = el("g", {
         class: cls, transform: `translate(${x},${y})`, "data-seq": goal.seq, "data-index": goal.index,
         "data-x-m": goal.x_m, "data-y-m": goal.y_m, "data-depth-m": goal.depth_m,
-        "data-yaw-deg": goal.yaw_deg ?? "",
+        "data-yaw-deg": goal.yaw_deg ?? "", "data-radius-m": goal.radius_m ?? "",
       }, g);
       if (finite(goal.yaw_deg)) {
         const a = el("g", { class: "arrow", transform: `rotate(${goal.yaw_deg})` }, m);
@@ -170,7 +184,8 @@
       el("text", { "text-anchor": "middle", dy: "0.35em" }, m).textContent = String(goal.index + 1);
       el("title", {}, m).textContent =
         `goal ${goal.index + 1}: N ${goal.x_m} m, E ${goal.y_m} m, depth ${goal.depth_m} m` +
-        (finite(goal.yaw_deg) ? `, yaw ${goal.yaw_deg} deg` : ", yaw: the planner's");
+        (finite(goal.yaw_deg) ? `, yaw ${goal.yaw_deg} deg` : ", yaw: the planner's") +
+        (finite(goal.radius_m) && goal.radius_m > 0 ? `, radius ${goal.radius_m} m` : ", radius: the vehicle's");
     }
   }
 
@@ -296,6 +311,7 @@
     if ("plan" in m) {
       S.plan = m.plan;
       drawObstacles();
+      drawGoalRadii();
     }
     if ("path" in m) {
       S.path = m.path;

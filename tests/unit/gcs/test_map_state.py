@@ -147,8 +147,8 @@ def test_goals_are_decoded_by_the_mission_files_owner_with_their_seq() -> None:
     # THEN the local goals come out in metres with their MAVLink seq and goal index (no home placeholder:
     # the same); the global one is not drawn (no origin given)
     assert goals == [
-        {"seq": 0, "index": 0, "x_m": 12.5, "y_m": -3.25, "depth_m": 2.0, "yaw_deg": 90.0},
-        {"seq": 2, "index": 2, "x_m": 30.0, "y_m": 20.0, "depth_m": 1.0, "yaw_deg": None},
+        {"seq": 0, "index": 0, "x_m": 12.5, "y_m": -3.25, "depth_m": 2.0, "yaw_deg": 90.0, "radius_m": 0.0},
+        {"seq": 2, "index": 2, "x_m": 30.0, "y_m": 20.0, "depth_m": 1.0, "yaw_deg": None, "radius_m": 0.0},
     ]
     assert goals_of([]) == []
 
