@@ -39,6 +39,7 @@ import numpy as np
 
 from auv_common.cli import join_negative_values
 from auv_common.config import ConfigError, check_declared, from_table, load_toml, param, require
+from hil_sim.model import faults as fault_model
 from hil_sim.model.actuators import (
     ActuatorCommand,
     WatchdogState,
@@ -48,6 +49,7 @@ from hil_sim.model.actuators import (
 )
 from hil_sim.model.current import CurrentParams
 from hil_sim.model.dynamics import BodyState
+from hil_sim.model.faults import Fault, FaultError, FaultEvent, FaultMemory
 from hil_sim.model.params import VehicleParams, load_params
 from hil_sim.model.sensors import AhrsMeasurement, DepthMeasurement, DvlMeasurement, Measurement, sample
 from hil_sim.model.sensors import PositionFix as FixMeasurement
@@ -339,6 +341,9 @@ TRUTH_COLUMNS = (
     "propeller_rps",
     "failsafe",
     "onboard_state",
+    "current_north_mps",  # the water's velocity now (NED; varies with [current] variation_std_mps)
+    "current_east_mps",
+    *fault_model.TRUTH_COLUMNS,  # fault_<kind>: 1 while a fault of that kind acts (hil_sim/model/faults.py)
 )
 
 
@@ -361,14 +366,23 @@ class BenchResult:
     run_wall_time_s: float = 0.0  # wall time from the start of simulated time to the end
     command_timeout_s: float = 0.0  # the actuator node's command timeout
     max_command_gap_s: float = 0.0  # the longest time between two valid commands (whole periods)
+    faults: list[str] = field(default_factory=list)  # the run's faults (hil_sim.model.faults.describe)
+    fault_events: list[dict[str, Any]] = field(default_factory=list)  # each start and end (FaultEvent)
     _t_start_wall: float = 0.0
 
 
 class Bench:
     """The simulation side of the bench: truth, actuators, sensors; one :meth:`period` per control period."""
 
-    def __init__(self, cfg: HilConfig, params: VehicleParams | None = None) -> None:
+    def __init__(
+        self, cfg: HilConfig, params: VehicleParams | None = None, faults: tuple[Fault, ...] = ()
+    ) -> None:
         self.cfg = cfg
+        # Faults act on the truth's sensors and actuators as simulated time runs (hil_sim/model/faults.py)
+        self.faults = faults
+        self.fault_memory = FaultMemory()
+        self.fault_events: list[FaultEvent] = []
+        self._active_faults: frozenset[int] = frozenset()
         params = params or load_params(cfg.bench.params or None)
         # The mean current is the bench's [current] table; its variation (a seeded first-order
         # Gauss-Markov process about the mean) the vehicle file's [current] variation_* keys.
@@ -413,10 +427,40 @@ class Bench:
         """Close a control period: the watchdog's command; integrate it if the clock runs."""
         cmd = self.node.end_period()
         if integrate:
-            result = sim_step(self.state, cmd, self.setup, self.rng)
+            result = sim_step(*self._faulted(cmd), self.rng)
             self.state = result.state
-            self.pending.extend(result.measurements)
+            meas = result.measurements
+            if self.faults:
+                meas, self.fault_memory = fault_model.apply_to_measurements(
+                    self.faults, meas, self.fault_memory
+                )
+                self._note_fault_events()
+            self.pending.extend(meas)
         return cmd
+
+    def _faulted(self, cmd: ActuatorCommand) -> tuple[SimState, ActuatorCommand, SimSetup]:
+        """The step's state, command and setup under the faults acting over this period (a stuck fin's
+        set-point, a thrust loss's thrust); as they are without faults."""
+        if not self.faults:
+            return self.state, cmd, self.setup
+        t = self.state.t_s
+        factor = fault_model.thrust_factor(self.faults, t)
+        setup = self.setup
+        if factor != 1.0:
+            params = setup.params
+            coeffs = fault_model.thrust_scaled(params.coeffs, factor)
+            setup = dataclasses.replace(setup, params=dataclasses.replace(params, coeffs=coeffs))
+        return self.state, fault_model.apply_to_command(self.faults, cmd, t), setup
+
+    def _note_fault_events(self) -> None:
+        """Log and keep each fault's start and end (at its scheduled time) as simulated time passes it."""
+        now = fault_model.active_indices(self.faults, self.state.t_s)
+        for event in fault_model.events_between(self.faults, self._active_faults, now):
+            log.warning(
+                "fault %s %s at t = %.3f s", event.event, fault_model.describe([event.fault]), event.t_s
+            )
+            self.fault_events.append(event)
+        self._active_faults = now
 
     def status_frames(self, t_s: float, rejected_frames: int = 0) -> list[m.BusMessage]:
         """FIN_STATUS and PROP_STATUS; ``rejected_frames``: frames the bench's receiver dropped so far."""
@@ -468,6 +512,9 @@ class Bench:
             a.propeller_rps,
             int(self.node.watchdog.failsafe),
             onboard_state,
+            self.state.current_ned_mps[0],
+            self.state.current_ned_mps[1],
+            *fault_model.truth_flags(self.faults, self.state.t_s),
         ]
 
 
@@ -483,9 +530,12 @@ def _heartbeats(uptime_s: float, failsafe: bool) -> list[m.BusMessage]:
 BENCH_LISTENS: tuple[type[m.BusMessage], ...] = (m.FinCmd, m.PropCmd, m.SyncAck, m.OnboardHeartbeat)
 
 
-def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -> BenchResult:
-    """Run the bench until ``stop``, the duration, a stop state, or (lock-step) a missing echo."""
-    bench = Bench(cfg)
+def run_bench(
+    cfg: HilConfig, stop: threading.Event, bus_override: Any = None, faults: tuple[Fault, ...] = ()
+) -> BenchResult:
+    """Run the bench until ``stop``, the duration, a stop state, or (lock-step) a missing echo; ``faults``
+    acts on its sensors and actuators (:mod:`hil_sim.model.faults`)."""
+    bench = Bench(cfg, faults=faults)
     codec = Codec()
     listen = [codec.frame_id(c) for c in BENCH_LISTENS]
     filters = None if cfg.bus.record else listen  # a recording bench hears the whole bus
@@ -555,6 +605,8 @@ def run_bench(cfg: HilConfig, stop: threading.Event, bus_override: Any = None) -
         result.max_command_gap_s = (bench.node.max_gap_periods + 1) * bench.setup.control_period_s
         result.rejected = dict(port.receiver.rejected)
         result.bus_losses = port.losses
+        result.faults = [fault_model.describe([f]) for f in faults]
+        result.fault_events = [e.to_dict() for e in bench.fault_events]
         if log_file is not None:
             log_file.close()
         port.close()
@@ -751,6 +803,20 @@ def _run_parser() -> argparse.ArgumentParser:
     p.add_argument("--stop-on", action="append", help="end when the onboard reports this state (repeatable)")
     p.add_argument("--stop-delay", type=float, help="simulated seconds to run on after --stop-on")
     p.add_argument("--profile", choices=["basin", "sea"], help="sensor profile")
+    p.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="kind=KIND,KEY=VALUE,...",
+        help=(
+            "inject a fault (repeatable; simulated s after the start): kind=dvl_dropout|fix_outage,start_s=S"
+            "[,duration_s=S]; kind=compass_bias,start_s=S,bias_deg=D; kind=depth_stuck,start_s=S; "
+            "kind=fin_stuck,fin=rudder|stern_port|stern_starboard,start_s=S,angle_deg=D; "
+            "kind=thrust_loss,start_s=S,fraction=F (0-1]. duration_s is optional for every kind (absent: "
+            "to the end). Each start and end is logged, in the truth log's fault_<kind> columns and in the "
+            "summary JSON. A bad fault: one line and exit 2"
+        ),
+    )
     p.add_argument("--summary-json", help="write a summary of the run to this file at the end")
     p.add_argument("--log-level", default="INFO")
     return p
@@ -764,6 +830,14 @@ def _floats(text: str, n: int, what: str) -> list[float]:
     if len(values) != n or not all(math.isfinite(v) for v in values):
         raise ConfigError(f"{what}: expected {n} finite comma-separated numbers, got {text!r}")
     return values
+
+
+def _fault_option(text: str) -> Fault:
+    """One ``--fault`` (:func:`hil_sim.model.faults.parse_fault_option`); a bad one: one ConfigError line."""
+    try:
+        return fault_model.parse_fault_option(text)
+    except FaultError as exc:
+        raise ConfigError(f"--fault {text!r}: {exc}") from None
 
 
 def run_main(argv: list[str]) -> int:
@@ -800,6 +874,7 @@ def run_main(argv: list[str]) -> int:
             speed, direction = _floats(args.current, 2, "--current")
             over["current"] = {"speed_mps": speed, "direction_deg": direction}
         cfg = load_hil_config(args.config, over)
+        faults = tuple(_fault_option(text) for text in args.fault)
     except ConfigError as exc:
         print(f"auv-hil: {exc}", file=sys.stderr)
         return 2
@@ -812,7 +887,7 @@ def run_main(argv: list[str]) -> int:
     signal.signal(signal.SIGTERM, _stop)
     log.info("bench: %s, %s bus %s", cfg.bench.time_mode, cfg.bus.interface, cfg.bus.channel)
     try:
-        result = run_bench(cfg, stop)
+        result = run_bench(cfg, stop, faults=faults)
     except ConfigError as exc:  # e.g. the vehicle parameter file ([bench] params): one line, as above
         print(f"auv-hil: {exc}", file=sys.stderr)
         return 2
