@@ -20,6 +20,7 @@ ID_COLUMNS = (
     "profile",
     "onboard",  # label of the onboard override set ("default" or "o1", ...)
     "vehicle",  # label of the vehicle variant ("nominal" or "v1", ...)
+    "faults",  # the bench's faults of the run ("none"; "" when the spec sweeps no faults)
 )
 #: What the run gave.
 RESULT_COLUMNS = (

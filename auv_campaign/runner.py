@@ -229,7 +229,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         initial=InitialConfig(*start),
         current=WaterCurrentConfig(spec.current_speed_mps, spec.current_dir_deg),
     )
-    bench = Bench(hil, vehicle_of(spec))
+    bench = Bench(hil, vehicle_of(spec), faults=spec.faults)
     autopilot = Autopilot(cfg.core, bus_limits=_bus_limits())
     check = check_mission(mission, cfg.core)
     refused = "" if check.ok else f"mission refused: {check}"

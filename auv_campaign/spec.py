@@ -15,13 +15,17 @@
       profile: [basin, sea]           # sensor profile; default [basin]
       onboard: [{}, {control.improved.Kp5: -0.3}]   # onboard --set overrides; default [{}]
       vehicle: [{}, {scale: {fin_lift: 0.7}, set: {fins.area_m2: 0.035}}]   # default [{}]
+      faults: [[], [{kind: dvl_dropout, start_s: 10, duration_s: 20}]]   # a list per run; default: no axis
     time_limit_factor: 2.0            # default 2.0 (x the nominal time of the mission)
     observe_after_end_s: 20           # default 20: simulated s the run goes on after COMPLETE, HOLD or ABORT
     success: {position_m: 0.3, course_deg: 10, cross_track_m: 2}   # defaults 0.3 m, 10 deg, no path bound
 
 At least one of ``missions`` / ``random_missions``. Missions are the listed ones, then the random ones
 (:func:`random_missions`, names r0, r1, ...). The runs are ``itertools.product`` of missions, seeds,
-currents, profiles, onboard override sets and vehicle variants, in that order (deterministic).
+currents, profiles, onboard override sets and vehicle variants, in that order (deterministic), then, when the
+spec sweeps them, the fault lists (:mod:`hil_sim.model.faults`: each entry a run's list of faults, ``[]`` for
+none; parsed by the bench's own parser; a spec without ``sweep.faults`` has no ``faults`` axis, and its run
+ids and runs are those of before faults existed).
 
 Caps (refused before anything is drawn or expanded): ``random_missions.count`` <= 100000
 (:data:`MAX_RANDOM_MISSIONS`), ``random_missions.goals`` <= 100 (:data:`MAX_RANDOM_GOALS`),
@@ -72,6 +76,8 @@ import yaml
 from auv_common import mission_yaml
 from auv_common.cli import yaml_error_line
 from auv_common.config import ConfigError
+from hil_sim.model import faults as fault_model
+from hil_sim.model.faults import Fault
 
 #: Sensor profiles of the simulator (``[sensors.*]`` of ``hil_sim/params/isimi100.toml``).
 PROFILES = ("basin", "sea")
@@ -91,7 +97,9 @@ AXES = ("mission", "seed", "current", "profile", "onboard", "vehicle")
 _TOP_KEYS = (
     "name", "missions", "random_missions", "sweep", "time_limit_factor", "observe_after_end_s", "success"
 )  # fmt: skip
-_SWEEP_KEYS = ("seed", "current", "profile", "onboard", "vehicle")
+_SWEEP_KEYS = ("seed", "current", "profile", "onboard", "vehicle", "faults")
+#: The fault axis (after :data:`AXES`; only in a spec that sweeps ``faults``).
+FAULT_AXIS = "faults"
 _MISSION_KEYS = ("name", "start", "goals", "obstacles")
 T = TypeVar("T")
 #: The YAML key of each field a mission validator problem names (``Problem.field``).
@@ -147,6 +155,11 @@ class MissionSpec:
     start: tuple[float, float, float, float]
     goals: tuple[tuple[float, float, float, float | None], ...]
     obstacles: tuple[tuple[float, float, float], ...] = ()
+    goal_radii_m: tuple[float, ...] = ()
+
+    def goal_radius_m(self, index: int) -> float:
+        """Goal ``index``'s own acceptance radius as the spec gives it (m; 0 = the vehicle's default)."""
+        return self.goal_radii_m[index] if index < len(self.goal_radii_m) else 0.0
 
     def to_mission_file(self) -> dict[str, Any]:
         """The goals and obstacles in the mission file format (:mod:`auv_common.mission_yaml`)."""
@@ -157,11 +170,6 @@ class MissionSpec:
             tuple(mission_yaml.Circle(*o) for o in self.obstacles),
         )
         return mission_yaml.plan_data(plan)
-    goal_radii_m: tuple[float, ...] = ()
-
-    def goal_radius_m(self, index: int) -> float:
-        """Goal ``index``'s own acceptance radius as the spec gives it (m; 0 = the vehicle's default)."""
-        return self.goal_radii_m[index] if index < len(self.goal_radii_m) else 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``{"name", "start": [4], "goals": [[4]...], "obstacles": [[3]...]}`` and
@@ -172,6 +180,9 @@ class MissionSpec:
             "goals": [list(g) for g in self.goals],
             "obstacles": [list(o) for o in self.obstacles],
         }
+        if any(self.goal_radii_m):
+            d["goal_radii_m"] = list(self.goal_radii_m)
+        return d
 
     @staticmethod
     def from_dict(d: Mapping[str, Any]) -> MissionSpec:
@@ -180,14 +191,12 @@ class MissionSpec:
         return MissionSpec(
             name=str(d["name"]),
             start=(sx, sy, sd, syaw),
-        if any(self.goal_radii_m):
-            d["goal_radii_m"] = list(self.goal_radii_m)
-        return d
             goals=tuple(
                 (float(x), float(y), float(z), None if yaw is None else float(yaw))
                 for x, y, z, yaw in d["goals"]
             ),
             obstacles=tuple((float(x), float(y), float(r)) for x, y, r in d.get("obstacles", ())),
+            goal_radii_m=tuple(float(r) for r in d.get("goal_radii_m", ())),
         )
 
 
@@ -196,7 +205,6 @@ def _freeze(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return tuple(_freeze(v) for v in value)
     return value
-            goal_radii_m=tuple(float(r) for r in d.get("goal_radii_m", ())),
 
 
 def _thaw(value: Any) -> Any:
@@ -243,6 +251,15 @@ class RunSpec:
     success_course_deg: float
     success_cross_track_m: float | None = None
     observe_after_end_s: float = OBSERVE_AFTER_END_S
+    #: the bench's faults for this run (:mod:`hil_sim.model.faults`) and the run id's label of them ("": the
+    #: spec does not sweep faults)
+    faults: tuple[Fault, ...] = ()
+    faults_label: str = ""
+
+    @property
+    def faults_description(self) -> str:
+        """The ``faults`` column and axis label (:func:`hil_sim.model.faults.describe`; "": no axis)."""
+        return fault_model.describe(self.faults) if self.faults_label else ""
 
     def onboard_sets(self) -> list[str]:
         """The overrides as ``auv-onboard run --set`` arguments: ``KEY=VALUE`` with the value in JSON (which
@@ -258,7 +275,7 @@ class RunSpec:
             "profile": self.profile,
             "onboard": self.onboard_label,
             "vehicle": self.vehicle_label,
-        }
+        } | ({FAULT_AXIS: self.faults_description} if self.faults_label else {})
 
     def identity(self) -> dict[str, Any]:
         """The identity columns of a result row (:data:`auv_campaign.results.ID_COLUMNS`)."""
@@ -271,6 +288,7 @@ class RunSpec:
             "profile": self.profile,
             "onboard": self.onboard_label,
             "vehicle": self.vehicle_label,
+            "faults": self.faults_description,
         }
 
     def to_dict(self) -> dict[str, Any]:
@@ -292,7 +310,11 @@ class RunSpec:
             "success_course_deg": self.success_course_deg,
             "success_cross_track_m": self.success_cross_track_m,
             "observe_after_end_s": self.observe_after_end_s,
-        }
+        } | (
+            {"faults": [fault_model.to_dict(f) for f in self.faults], "faults_label": self.faults_label}
+            if self.faults_label
+            else {}
+        )
 
     @staticmethod
     def from_dict(d: Mapping[str, Any]) -> RunSpec:
@@ -316,6 +338,8 @@ class RunSpec:
                 None if d.get("success_cross_track_m") is None else float(d["success_cross_track_m"])
             ),
             observe_after_end_s=float(d.get("observe_after_end_s", OBSERVE_AFTER_END_S)),
+            faults=fault_model.parse_faults(d.get("faults", [])),
+            faults_label=str(d.get("faults_label", "")),
         )
 
 
@@ -361,13 +385,20 @@ def current_label(speed_mps: float, direction_deg: float) -> str:
 
 
 def make_run_id(
-    mission: str, seed: int, speed_mps: float, direction_deg: float, profile: str, onboard: str, vehicle: str
+    mission: str,
+    seed: int,
+    speed_mps: float,
+    direction_deg: float,
+    profile: str,
+    onboard: str,
+    vehicle: str,
+    faults: str = "",
 ) -> str:
-    """``{mission}_s{seed}_c{speed}d{dir}_{profile}_{onboard}_{vehicle}``, e.g.
-    ``m0_s0_c0.3d90_basin_default_nominal`` (readable, filename-safe, unique within a spec)."""
-    return "_".join(
-        (mission, seed_label(seed), current_label(speed_mps, direction_deg), profile, onboard, vehicle)
-    )
+    """``{mission}_s{seed}_c{speed}d{dir}_{profile}_{onboard}_{vehicle}[_{faults}]``, e.g.
+    ``m0_s0_c0.3d90_basin_default_nominal`` or ``turn_s0_c0d0_basin_default_nominal_dvl_dropout``
+    (readable, filename-safe, unique within a spec; the faults part only in a spec that sweeps faults)."""
+    parts = (mission, seed_label(seed), current_label(speed_mps, direction_deg), profile, onboard, vehicle)
+    return "_".join((*parts, faults) if faults else parts)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -891,6 +922,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
     _no_duplicates("vehicle", [(_canonical(s), _canonical(t)) for _, s, t in vehicles])
     _no_duplicates("vehicle", [label for label, _, _ in vehicles])
 
+    fault_lists = _fault_axis(sweep)
     # The size, before anything is drawn or expanded.
     sizes = {
         "mission": n_missions,
@@ -899,6 +931,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         "profile": len(profiles),
         "onboard": len(onboards),
         "vehicle": len(vehicles),
+        FAULT_AXIS: len(fault_lists),
     }
     total = math.prod(sizes.values())
     if total > MAX_RUNS:
@@ -945,10 +978,12 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         v_label,
         scale,
         sets,
-    ) in itertools.product(missions, seeds, currents, profiles, onboards, vehicles):
+    ), (f_label, faults) in itertools.product(
+        missions, seeds, currents, profiles, onboards, vehicles, fault_lists
+    ):
         runs.append(
             RunSpec(
-                run_id=make_run_id(mission.name, seed, speed, direction, profile, o_label, v_label),
+                run_id=make_run_id(mission.name, seed, speed, direction, profile, o_label, v_label, f_label),
                 mission=mission,
                 seed=seed,
                 current_speed_mps=speed,
@@ -964,6 +999,8 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
                 success_course_deg=course_deg,
                 success_cross_track_m=cross_track_m,
                 observe_after_end_s=observe_s,
+                faults=faults,
+                faults_label=f_label,
             )
         )
     ids: set[str] = set()
@@ -980,6 +1017,8 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         "onboard": [label for label, _ in onboards],
         "vehicle": [label for label, _, _ in vehicles],
     }
+    if "faults" in sweep:
+        axes[FAULT_AXIS] = [fault_model.describe(faults) for _, faults in fault_lists]
     legend = {
         "onboard": {label: _describe_pairs(pairs) or "packaged onboard.toml" for label, pairs in onboards},
         "vehicle": {
@@ -996,6 +1035,28 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         },
     }
     return CampaignSpec(name=name, path=where, runs=tuple(runs), axes=axes, legend=legend)
+
+
+def _fault_axis(sweep: dict[str, Any]) -> list[tuple[str, tuple[Fault, ...]]]:
+    """``sweep.faults``: (run id label, faults) per entry, parsed by the bench's own parser
+    (:func:`hil_sim.model.faults.parse_faults`); without the key one entry ``("", ())``: no axis, the run ids
+    of a spec without faults. A label is the kinds (``none``, ``dvl_dropout``, ``fin_stuck+thrust_loss``),
+    with ``-<index>`` when two entries share their kinds."""
+    if "faults" not in sweep:
+        return [("", ())]
+    entries: list[tuple[str, tuple[Fault, ...]]] = []
+    for i, raw in enumerate(_list("sweep.faults", sweep["faults"], non_empty=True)):
+        key = f"sweep.faults[{i}]"
+        if not isinstance(raw, list):
+            raise _Invalid(key, f"expected a list of faults ([] for none), got {raw!r}")
+        try:
+            faults = fault_model.parse_faults(raw)
+        except fault_model.FaultError as exc:
+            raise _Invalid(f"{key}{exc.key}", exc.problem) from None
+        entries.append((fault_model.short_label(faults), faults))
+    _no_duplicates(FAULT_AXIS, [fault_model.describe(faults) for _, faults in entries])
+    kinds = [label for label, _ in entries]
+    return [(label if kinds.count(label) == 1 else f"{label}-{i}", f) for i, (label, f) in enumerate(entries)]
 
 
 def load_spec(path: str | Path, *, seed_offset: int = 0, random_seed_offset: int = 0) -> CampaignSpec:
@@ -1017,6 +1078,7 @@ def load_spec(path: str | Path, *, seed_offset: int = 0, random_seed_offset: int
 __all__ = [
     "AXES",
     "CAMPAIGN_TABLES",
+    "FAULT_AXIS",
     "MAX_CURRENT_MPS",
     "MAX_RANDOM_GOALS",
     "MAX_RANDOM_MISSIONS",

@@ -481,7 +481,7 @@ BAD: list[tuple[str, Any, str]] = [
     ("missions/0/obstacles", [{"x_m": 0, "y_m": 0}], "missions[0].obstacles[0].radius_m: missing"),
     ("missions/0/obstacles", 3, "missions[0].obstacles: expected a list"),
     ("sweep", [1], "sweep: expected a mapping"),
-    ("sweep/bogus", [1], "sweep.bogus: unknown key (known: current, onboard, profile, seed, vehicle)"),
+    ("sweep/bogus", [1], "sweep.bogus: unknown key (known: current, faults, onboard, profile, seed, vehicle)"),
     ("sweep/seed", 3, "sweep.seed: expected a list, got 3"),
     ("sweep/seed", [], "sweep.seed: must not be empty"),
     ("sweep/seed", [0, 1.5], "sweep.seed[1]: expected an integer, got 1.5"),
