@@ -822,7 +822,7 @@ def _check_vehicle(key: str, scale: dict[str, float], sets: dict[str, Any]) -> N
                 f"{key}.set.{dotted}",
                 "the mean current is the sweep's current axis ([speed_mps, direction_deg]); a vehicle "
                 "variant may set only its variation (current.variation_std_mps, "
-                "current.variation_time_constant_s)",
+                "current.variation_period_s)",
             )
     try:
         vehicle_params(scale, {k: _thaw(v) for k, v in sets.items()}, where=key)

@@ -393,7 +393,7 @@ class Bench:
             cfg.current.speed_mps * math.sin(direction),
             0.0,
             variation.variation_std_mps,
-            variation.variation_time_constant_s,
+            variation.variation_period_s,
         )
         self.setup: SimSetup = make_setup(
             params, cfg.bench.sensor_profile, current, control_period_s=1.0 / cfg.bench.control_rate_hz

@@ -18,14 +18,12 @@ class CurrentParams:
     east_mps: float = 0.0
     down_mps: float = 0.0
     variation_std_mps: float = 0.0
-    variation_time_constant_s: float = 300.0
+    variation_period_s: float = 300.0  # the Gauss-Markov time constant
 
     @classmethod
     def from_config(cls, cfg: CurrentConfig) -> CurrentParams:
         """From the ``[current]`` TOML section."""
-        return cls(
-            cfg.north_mps, cfg.east_mps, cfg.down_mps, cfg.variation_std_mps, cfg.variation_time_constant_s
-        )
+        return cls(cfg.north_mps, cfg.east_mps, cfg.down_mps, cfg.variation_std_mps, cfg.variation_period_s)
 
     @property
     def mean_ned_mps(self) -> tuple[float, float, float]:
@@ -47,7 +45,7 @@ def current_after(
     mean = params.mean_ned_mps
     if params.variation_std_mps <= 0.0 or dt_s <= 0.0:
         return mean
-    a = math.exp(-dt_s / params.variation_time_constant_s)
+    a = math.exp(-dt_s / params.variation_period_s)
     s = params.variation_std_mps * math.sqrt(1.0 - a * a)
     w = rng.standard_normal(3)
     return (

@@ -19,7 +19,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -290,14 +290,22 @@ class IntegrationConfig:
 class CurrentConfig:
     """Ocean current in NED (at most 5 m/s) and its optional Gauss-Markov variation."""
 
+    REMOVED_KEYS: ClassVar[dict[str, str]] = {
+        "variation_time_constant_s": "renamed variation_period_s (the same time constant, the issue's name)"
+    }
+
     north_mps: float = param(0.0, unit="m/s", desc="current towards north")
     east_mps: float = param(0.0, unit="m/s", desc="current towards east")
     down_mps: float = param(0.0, unit="m/s", desc="current downwards")
     variation_std_mps: float = param(
         0.0, unit="m/s", min=0.0, desc="Gauss-Markov variation, standard deviation (0 = constant)"
     )
-    variation_time_constant_s: float = param(
-        300.0, unit="s", min=0.0, min_open=True, desc="Gauss-Markov variation, time constant"
+    variation_period_s: float = param(
+        300.0,
+        unit="s",
+        min=0.0,
+        min_open=True,
+        desc="Gauss-Markov variation, time constant: the current wanders about its mean over about this time",
     )
 
     def __post_init__(self) -> None:
