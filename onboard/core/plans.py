@@ -49,6 +49,7 @@ class PlanRequest:
     speed_mps: float = 1.0
     replan: bool = False  # a path is flown and stays if this one fails (planned again for the current)
     planned_current_mps: float = 0.0  # the current the flown path was planned for (m/s), when replan
+    cross_track_bound_m: float = 0.0  # the largest cross-track measured on the mission so far (m)
 
 
 #: The widest a current makes the turns: the current counted is at most this fraction of the path speed.
@@ -61,6 +62,17 @@ def current_radius_m(turning_radius_m: float, speed_mps: float, current_mps: flo
     U - c of water speed, so r * U / (U - c), with c at most :data:`MAX_CURRENT_FRACTION` of U."""
     c = min(max(current_mps, 0.0), MAX_CURRENT_FRACTION * speed_mps)
     return turning_radius_m * speed_mps / (speed_mps - c)
+
+
+def _said_margin(path: Path, nominal: Any, grown_m: float) -> Path:
+    """``path``, planned with the nominal margin where the grown one found no way: its note says so."""
+    if grown_m <= 0.0:
+        return path
+    text = (
+        f"the obstacle margin grown for the current ({nominal.obstacle_margin_m + grown_m:.1f} m) finds no "
+        f"way: planned with {nominal.obstacle_margin_m:g} m"
+    )
+    return replace(path, note=f"{path.note}; {text}" if path.note else text)
 
 
 def compute_plan(request: PlanRequest) -> Path:
@@ -79,18 +91,32 @@ def compute_plan(request: PlanRequest) -> Path:
                 goal_depth_m=g.depth_m,
             )
 
+        # The margin grown for the current and the cross-track measured (issue 23 item 4): first with it,
+        # then with the nominal margin (said in the path's note); each with the wider turns first where
+        # the planner is current-aware (the run-in keeps its length: a longer one moved the whole path).
+        grown_m = (
+            0.0
+            if not request.obstacles
+            else nominal.grown_margin_m(request.current_mps, request.cross_track_bound_m)
+        )
+        radius = nominal.turning_radius_m
         if nominal.current_aware and request.current_mps > 0.0:
             radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
-            try:  # wider turns first, with no tighter fallback of their own: the nominal radius comes next
-                widened = replace(
-                    nominal.without_fallbacks(),
-                    turning_radius_m=radius,
-                    goal_run_in_m=nominal.goal_run_in_m * radius / nominal.turning_radius_m,
-                )
-                return to_goal(widened)
+        tries: list[tuple[Any, bool]] = []  # (configuration, with the nominal margin)
+        if grown_m > 0.0:
+            wide = replace(nominal.without_fallbacks(), obstacle_margin_m=nominal.obstacle_margin_m + grown_m)
+            if radius > nominal.turning_radius_m:
+                tries.append((replace(wide, turning_radius_m=radius), False))
+            tries.append((wide, False))
+        if radius > nominal.turning_radius_m:  # no tighter fallback of their own: the nominal radius next
+            tries.append((replace(nominal.without_fallbacks(), turning_radius_m=radius), True))
+        for config, nominal_margin in tries:
+            try:
+                path = to_goal(config)
             except PlannerError:
-                pass  # the wider turns find no way: the nominal radius (and its own fallback)
-        return to_goal(nominal)
+                continue
+            return _said_margin(path, nominal, grown_m) if nominal_margin else path
+        return _said_margin(to_goal(nominal), nominal, grown_m)
     # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
     r = request.loiter_radius_m
     for i, (ox, oy, orad) in enumerate(inflate(request.obstacles, request.planner)):

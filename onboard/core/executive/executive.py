@@ -48,6 +48,9 @@ class Executive:
     guidance_state: guidance.GuidanceState = field(default_factory=guidance.GuidanceState)
     path_current_mps: float = 0.0  # the current (m/s) the flown path was planned for
     path_t_s: float = -math.inf  # when the flown path was asked for (the core's time, s)
+    #: the largest |cross-track| (m, the estimate's) on the goal paths since the mission (re)started: the
+    #: planner's obstacle margin grows to it (``PlannerConfig.grown_margin_m``)
+    cross_track_bound_m: float = 0.0
     _plan_out: PlanRequest | None = None  # asked for, not yet taken by the loop
     _plan_wait: PlanRequest | None = None  # taken (or asked for): the result is awaited
     _plan_ids: int = 0
@@ -101,6 +104,8 @@ class Executive:
             run_in_decel_mps2=mission.run_in_decel_mps2,
             arrival_radius_m=radius_m,
         )
+        if self.path_kind == "goal" and abs(reference.cross_track_m) > self.cross_track_bound_m:
+            self.cross_track_bound_m = abs(reference.cross_track_m)  # (NaN compares False: kept)
         return Leg(reference, debug)
 
     # --- what the state machine's transitions mean here ---------------------------------------------
@@ -109,6 +114,7 @@ class Executive:
         that flies nothing drops the path. COMPLETE (surface) and HOLD begin the stop (it brakes where
         nothing is flown: :class:`~onboard.core.executive.surface.Stop`); every other state ends it."""
         if event in (MissionEvent.START, MissionEvent.RESUME):
+            self.cross_track_bound_m = 0.0  # measured afresh from where the vehicle is
             self.goto.start(self, v)
         if after is MissionState.HOLD or (after is MissionState.COMPLETE and not self.loitering(v)):
             self.begin_stop(v)
@@ -163,11 +169,23 @@ class Executive:
         return speed if speed >= CURRENT_NOISE_MPS else 0.0
 
     def ask_plan(self, v: Vehicle, kind: str, replan: bool = False) -> None:
-        """Put a plan request out: ``goal`` to the current goal, ``loiter`` round the last goal."""
+        """Put a plan request out: ``goal`` to the current goal, ``loiter`` round the last goal.
+
+        A re-plan for the current (``replan``) starts where the vehicle is on the path flown (its
+        projection, the path's heading), not where a drift has put it: the path is held (guidance brings
+        the vehicle back onto it) and only what lies ahead changes (issue 23 item 4: a new path from the
+        drifted pose moved the whole path, 4-6 m of cross-track against the first one at 0.5 m/s)."""
         n = v.last_nav
         if n is None:
             return
         cfg = v.config
+        start = (n.x_m, n.y_m, n.yaw_rad)
+        start_depth_m = max(n.depth_m, 0.0)
+        s_proj = self.guidance_state.s_proj_m
+        if replan and self.path is not None and s_proj is not None:
+            on_path = self.path.sample(s_proj)
+            start = (on_path.x_m, on_path.y_m, on_path.yaw_rad)
+            start_depth_m = max(on_path.depth_m, 0.0)
         index = v.status.goal_index if kind == "goal" else len(v.mission.goals) - 1
         radius = cfg.mission.loiter_radius_m or 2.0 * cfg.planner.turning_radius_m
         self._plan_ids += 1
@@ -175,8 +193,8 @@ class Executive:
             self._plan_ids,
             kind,
             index,
-            (n.x_m, n.y_m, n.yaw_rad),
-            max(n.depth_m, 0.0),
+            start,
+            start_depth_m,
             v.mission.goals[index],
             v.mission.obstacles,
             cfg.planner,
@@ -187,6 +205,7 @@ class Executive:
             speed_mps=cfg.guidance.speed_mps,
             replan=replan,
             planned_current_mps=self.path_current_mps,
+            cross_track_bound_m=self.cross_track_bound_m,
         )
 
     def take_plan_request(self) -> PlanRequest | None:

@@ -94,6 +94,13 @@ class PlannerConfig:
         min_obstacle_margin_m: where the start or the goal is inside an obstacle's margin and the tighter
             radius does not help, plan once more with it and the obstacle margin reduced to this (m; None =
             never; below ``obstacle_margin_m``); the path's note says so.
+        current_margin_s: the obstacle margin grows with the water current (issue 23 item 4): a goal plan
+            first inflates the obstacles by ``obstacle_margin_m`` + the larger of this times the estimated
+            current (s x m/s: how far the vehicle drifts before its fins correct it) and the cross-track
+            the vehicle has been measured to keep on the mission so far, at most ``current_margin_max_m``;
+            where that finds no way, the nominal margin (with its fallbacks) and the path's note says so.
+            0 = the fixed margin.
+        current_margin_max_m: the most the margin grows for the current and the measured cross-track (m).
         csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
@@ -129,6 +136,14 @@ class PlannerConfig:
     start_run_up_m: float = param(
         0.0, unit="m", min=0.0, desc="straight run-up along the start heading (0 = none)"
     )
+    current_margin_s: float = param(
+        4.0, unit="s", min=0.0, operator=(0.0, 60.0), mavlink="PLN_CUR_MRG_S",
+        desc="obstacle margin added per m/s of estimated current (0 = fixed margin)",
+    )  # fmt: skip
+    current_margin_max_m: float = param(
+        3.0, unit="m", min=0.0, operator=(0.0, 50.0), mavlink="PLN_CUR_MRG_MAX",
+        desc="most the obstacle margin grows for the current and the measured cross-track",
+    )  # fmt: skip
     min_turning_radius_m: float = 0.0
     min_obstacle_margin_m: float | None = None
     current_aware: bool = False
@@ -187,6 +202,14 @@ class PlannerConfig:
         if margin is not None and margin < self.obstacle_margin_m:
             out.append(dataclasses.replace(cfg, obstacle_margin_m=margin))
         return tuple(out)
+
+    def grown_margin_m(self, current_mps: float, cross_track_bound_m: float = 0.0) -> float:
+        """The margin (m) added to ``obstacle_margin_m`` in a current of ``current_mps`` (m/s) by a vehicle
+        measured to keep within ``cross_track_bound_m`` (m) of its path: the larger of
+        ``current_margin_s`` x the current and the bound, at most ``current_margin_max_m`` (NaN counts 0)."""
+        drift_m = self.current_margin_s * current_mps if current_mps > 0.0 else 0.0
+        bound_m = cross_track_bound_m if cross_track_bound_m > 0.0 else 0.0
+        return min(max(drift_m, bound_m), self.current_margin_max_m)
 
     @property
     def tightest(self) -> PlannerConfig:
