@@ -181,3 +181,35 @@ def test_thrust_loss_slows_the_vehicle_at_the_same_propeller_speed(tmp_path: Pat
     assert all(u[t] == u_twin[t] for t in u if t <= START_S)
     assert u[SIM_S] < 0.9 * u_twin[SIM_S]
     assert run.truth[-1]["fault_thrust_loss"] == 1.0 and run.truth[0]["fault_thrust_loss"] == 0.0
+
+
+def test_auv_hil_run_takes_repeatable_faults_and_refuses_a_bad_one_in_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import hil_sim.bench_program as bp
+
+    # GIVEN two --fault options WHEN auv-hil run starts THEN the bench gets both, parsed
+    got: dict[str, object] = {}
+
+    def fake_run_bench(cfg: HilConfig, stop: object, faults: tuple[fm.Fault, ...] = ()) -> BenchResult:
+        got["faults"] = faults
+        return BenchResult()
+
+    monkeypatch.setattr(bp, "run_bench", fake_run_bench)
+    monkeypatch.setattr(bp.signal, "signal", lambda *_: None)  # the test process keeps its own handlers
+    argv = [
+        "--fault",
+        "kind=dvl_dropout,start_s=10,duration_s=20",
+        "--fault",
+        "kind=thrust_loss,start_s=5,fraction=0.5",
+    ]
+    assert bp.run_main(argv) == 0
+    assert got["faults"] == (fm.DvlDropout(10.0, 20.0), fm.ThrustLoss(5.0, fraction=0.5))
+    # AND a bad one is one line naming the key, exit 2, before the bench starts
+    got.clear()
+    assert bp.run_main(["--fault", "kind=fin_stuck,fin=aileron,start_s=1,angle_deg=3"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "auv-hil: --fault 'kind=fin_stuck,fin=aileron,start_s=1,angle_deg=3': fin: must be one of rudder, "
+        "stern_port, stern_starboard, got 'aileron'"
+    ]
+    assert not got
