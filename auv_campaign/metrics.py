@@ -19,6 +19,9 @@ Added here:
   arrival_radius_m``; a goal with its own radius is reached (``success``) within it (:func:`judge_goals`);
 - the end (the first COMPLETE, HOLD or ABORT): ``end_state``, ``end_time_s``, ``glide_after_end_m`` (the
   horizontal distance travelled from then to the end of the run) and ``max_depth_after_end_m``;
+- ``nees_mean``, ``nees_in_band_fraction``, ``nees_above_fraction``: how honest the onboard's position
+  covariance was against the truth's error (:func:`nees_figures`; the one exception to "never the onboard's
+  view": its estimate is what is judged);
 - ``min_clearance_m``: the least distance from the truth to an obstacle's edge (negative: inside);
 - ``control_effort_rad``: the RMS of the rudder and both stern commands over the run;
 - saturation: the fraction of ticks with a fin command at the onboard's ``[control.limits]`` angle, or the
@@ -36,6 +39,7 @@ from auv_campaign.spec import RunSpec
 from hil_sim.bench_program import TRUTH_COLUMNS
 from hil_sim.metrics import compute_metrics, goal_crossings
 from onboard.core.control.actuators import ActuatorLimits
+from onboard.core.nav.confidence import NEES_BAND, nees
 
 _COL = {name: i for i, name in enumerate(TRUTH_COLUMNS)}
 _T, _X, _Y, _D, _YAW = (_COL[k] for k in ("t_s", "x_m", "y_m", "depth_m", "yaw_deg"))
@@ -78,11 +82,11 @@ def judge_goals(
     rows: list[dict[str, float]],
     legs: list[list[list[float]]],
     last: dict[str, Any],
+    complete_row: int | None = None,
 ) -> list[dict[str, Any]]:
     """Every goal judged on the truth, in order (one dict each: ``index``, ``closest_m`` and
     ``closest_t_s`` (the closest approach, horizontal, from the previous goal's crossing to this one's, or
     to the end), ``arrived`` (its line crossed), ``arrival_t_s``, ``position_error_m``,
-    complete_row: int | None = None,
     ``course_error_deg``, ``reached`` (arrived within the spec's position and course bounds)).
 
     ``legs`` are the planned legs' polylines (``[[x_m, y_m, yaw_deg], ...]``, one per goal). An
@@ -98,16 +102,16 @@ def judge_goals(
     start = 0
     goals = spec.mission.goals
     for i, (gx, gy, _depth, gyaw) in enumerate(goals):
-        if i == len(goals) - 1:
-            arrived = bool(last["completed"])
-            hit: dict[str, Any] | None = (
-                {"row": last["arrival_row"], "t_s": last["arrival_time_s"],
         radius_m = spec.mission.goal_radius_m(i)
         if radius_m > 0.0:
             last_goal = i == len(goals) - 1
             out.append(_judge_by_radius(rows, start, i, (gx, gy), radius_m, last_goal, complete_row))
             start = out[-1].pop("row")
             continue
+        if i == len(goals) - 1:
+            arrived = bool(last["completed"])
+            hit: dict[str, Any] | None = (
+                {"row": last["arrival_row"], "t_s": last["arrival_time_s"],
                  "position_error_m": last["final_position_error_m"],
                  "course_error_deg": last["final_course_error_deg"]} if arrived else None
             )  # fmt: skip
@@ -132,10 +136,6 @@ def judge_goals(
     return out
 
 
-def _within(spec: RunSpec, error_m: float, course_deg: float | None) -> bool:
-    """Within the spec's success bounds of position (m) and course (deg; nan or None: not judged, fails)."""
-    return (
-        error_m <= spec.success_position_m
 def _judge_by_radius(
     rows: list[dict[str, float]],
     start: int,
@@ -166,10 +166,32 @@ def _judge_by_radius(
     }  # fmt: skip
 
 
+def _within(spec: RunSpec, error_m: float, course_deg: float | None) -> bool:
+    """Within the spec's success bounds of position (m) and course (deg; nan or None: not judged, fails)."""
+    return (
+        error_m <= spec.success_position_m
         and course_deg is not None
         and math.isfinite(course_deg)
         and abs(course_deg) <= spec.success_course_deg
     )
+
+
+def nees_figures(samples: list[tuple[float, float, float, float]]) -> dict[str, Any]:
+    """How honest the onboard's position sigma was over the run: per sample (one a tick while the clock runs
+    and the position is valid: the truth's error from the estimate ``(ex_m, ey_m)`` and the estimate's
+    variances ``(var_x_m2, var_y_m2)``) the NEES (:func:`onboard.core.nav.confidence.nees`); ``nees_mean``
+    (a consistent filter: 2), ``nees_in_band_fraction`` (within the 2-dof 95 % band: 0.95) and
+    ``nees_above_fraction`` (above it, the filter overconfident: 0.025). None without a sample."""
+    values = [nees(ex, ey, vx, vy) for ex, ey, vx, vy in samples if vx > 0.0 and vy > 0.0]
+    if not values:
+        return dict.fromkeys(("nees_mean", "nees_in_band_fraction", "nees_above_fraction"))
+    lo, hi = NEES_BAND
+    n = len(values)
+    return {
+        "nees_mean": math.fsum(values) / n,
+        "nees_in_band_fraction": sum(1 for v in values if lo <= v <= hi) / n,
+        "nees_above_fraction": sum(1 for v in values if v > hi) / n,
+    }
 
 
 def end_figures(truth: list[list[Any]]) -> dict[str, Any]:
@@ -202,14 +224,18 @@ def run_row(
     limits: ActuatorLimits,
     time_limit_reached: bool = False,
     legs: list[list[list[float]]] | None = None,
+    nav_errors: list[tuple[float, float, float, float]] | None = None,
 ) -> dict[str, Any]:
     """One row of ``runs.csv`` (``results.COLUMNS`` without the timing of the run itself) and, under
     ``goal_figures``, the list of :func:`judge_goals` (the run JSON keeps it; the CSV does not).
 
     ``samples`` is the planned path through every goal; ``legs`` the same per goal (default: one leg, the
     whole path, for a one-goal mission). ``time_limit_reached``: the run was stopped at its time limit
-    before the vehicle reached an end state."""
+    before the vehicle reached an end state. ``nav_errors``: the navigation's samples of
+    :func:`nees_figures` (the NEES columns; None: not measured)."""
     row = base_row(spec)
+    if nav_errors is not None:
+        row.update(nees_figures(nav_errors))
     row.update(
         planned=planned, final_state=final_state, final_reason=final_reason, time_limit_s=time_limit_s,
         time_limit_reached=time_limit_reached,
@@ -257,6 +283,7 @@ def run_row(
         sum(1 for r in truth if r[_PROP] >= limits.propeller_max_rps - SATURATION_TOLERANCE) / n
     )
     first_complete = truth[complete_at] if complete_at is not None else None
+    last_radius_m = spec.mission.goal_radius_m(len(spec.mission.goals) - 1)
     if first_complete is not None:
         miss_m = math.hypot(first_complete[_X] - gx, first_complete[_Y] - gy)
         # the radius the vehicle judged by: the goal's own, else its [mission] arrival_radius_m
@@ -264,6 +291,15 @@ def run_row(
     clear = row["min_clearance_m"] is None or row["min_clearance_m"] >= 0.0
     bound = spec.success_cross_track_m
     on_path = bound is None or (row["max_cross_track_m"] is not None and row["max_cross_track_m"] <= bound)
+    # the last goal at its line crossing within the spec's bounds; one with its own radius by that radius
+    last_ok = (
+        goal_figures[-1]["reached"]
+        if last_radius_m > 0.0
+        else met["completed"]
+        and met["final_position_error_m"] <= spec.success_position_m
+        and course is not None
+        and abs(course) <= spec.success_course_deg
+    )
     row["success"] = bool(
         last_ok
         and row["completed"]
@@ -275,13 +311,3 @@ def run_row(
         and clear
     )
     return row
-    last_radius_m = spec.mission.goal_radius_m(len(spec.mission.goals) - 1)
-    # the last goal at its line crossing within the spec's bounds; one with its own radius by that radius
-    last_ok = (
-        goal_figures[-1]["reached"]
-        if last_radius_m > 0.0
-        else met["completed"]
-        and met["final_position_error_m"] <= spec.success_position_m
-        and course is not None
-        and abs(course) <= spec.success_course_deg
-    )

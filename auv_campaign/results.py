@@ -45,6 +45,9 @@ RESULT_COLUMNS = (
     "control_effort_rad",  # RMS of the rudder and stern commands over the run
     "fin_saturation_fraction",  # ticks with a fin command at its limit / ticks
     "propeller_saturation_fraction",  # ticks with the propeller command at its maximum / ticks
+    "nees_mean",  # the horizontal position's NEES (truth vs the onboard's estimate and covariance), mean
+    "nees_in_band_fraction",  # samples whose NEES lies in the 2-dof 95 % band [0.051, 7.38] (ideal 0.95)
+    "nees_above_fraction",  # samples above it: the filter claims more than it knows (ideal 0.025)
     "end_state",  # the first of COMPLETE, HOLD, ABORT (None: the run ended before any)
     "end_time_s",  # when the vehicle first reported it (simulated s)
     "glide_after_end_m",  # horizontal distance travelled from the end to the end of the run

@@ -241,6 +241,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     truth = _Rows()
     result = BenchResult()
     reference: list[tuple[float, float, float, float]] = []
+    nav_errors: list[tuple[float, float, float, float]] = []
     first_plans: dict[int, Path] = {}
     if not refused:
         if timings is not None:
@@ -249,6 +250,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         _record_first_plans(autopilot, first_plans)
         if keep_truth:
             _record_reference(autopilot, reference)
+        _record_nav_errors(autopilot, bench, result, nav_errors)
         t_drive = time.perf_counter()
         _drive(bench, autopilot, cfg, hil, truth, result, limit)
         if timings is not None:
@@ -279,6 +281,7 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         limits=cfg.control.limits,
         time_limit_reached=time_limit_reached,
         legs=[path_samples([leg]) for leg in flown],
+        nav_errors=nav_errors,
     )
     row["sim_time_s"] = round(bench.state.t_s, 3)
     row["ticks"] = result.ticks
@@ -320,6 +323,28 @@ def _record_reference(autopilot: Autopilot, out: list[tuple[float, float, float,
         if r is not None:
             out.append((now_s, r.x_m, r.y_m, r.yaw_rad))
         return result
+
+    autopilot.step = step  # type: ignore[method-assign]
+
+
+def _record_nav_errors(
+    autopilot: Autopilot, bench: Bench, result: BenchResult, out: list[tuple[float, float, float, float]]
+) -> None:
+    """Keep, each tick of ``autopilot`` while the simulated clock runs and its position is valid, the truth's
+    error from the estimate (m, north and east) and the estimate's variances (m^2): the NEES columns'
+    samples. The onboard ticks on the period's sensor frames before the bench integrates it, so the
+    bench's state at that moment is the truth at the estimate's time."""
+    inner = autopilot.step
+
+    def step(cache: dict[type, Any], now_s: float, dt_s: float) -> Any:
+        record = inner(cache, now_s, dt_s)
+        nav = record.nav
+        if result.started and nav.position_valid:
+            body = bench.state.body
+            out.append(
+                (body.x_m - nav.x_m, body.y_m - nav.y_m, nav.position_std_x_m**2, nav.position_std_y_m**2)
+            )
+        return record
 
     autopilot.step = step  # type: ignore[method-assign]
 

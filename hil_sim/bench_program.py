@@ -30,7 +30,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -311,8 +311,10 @@ def sensor_frames(meas: Measurement) -> list[m.BusMessage]:
             )
         ]
     assert isinstance(meas, FixMeasurement)
-    # The stated accuracy in the frame's 0.25 m steps (a sensor states its accuracy conservatively: up).
-    std_m = _clip(math.ceil(meas.std_m / 0.25 - 1e-9) * 0.25, 0.0, 3.75)
+    # The stated accuracy in the frame's 0.25 m steps (a sensor states its accuracy conservatively: up),
+    # 0 when better than one step (the frame's "better than 0.25 m": the onboard's [nav] fix_sigma_m then;
+    # rounding 3 mm up to 0.25 m made the basin's filter claim 100 x its error).
+    std_m = 0.0 if meas.std_m < 0.25 else _clip(math.ceil(meas.std_m / 0.25 - 1e-9) * 0.25, 0.0, 3.75)
     return [m.PositionFix(_clip(meas.x_m, -8000.0, 8000.0), _clip(meas.y_m, -8000.0, 8000.0), t, std_m)]
 
 
@@ -429,7 +431,7 @@ class Bench:
         if integrate:
             result = sim_step(*self._faulted(cmd), self.rng)
             self.state = result.state
-            meas = result.measurements
+            meas: Sequence[Measurement] = result.measurements
             if self.faults:
                 meas, self.fault_memory = fault_model.apply_to_measurements(
                     self.faults, meas, self.fault_memory

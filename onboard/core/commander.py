@@ -21,6 +21,7 @@ from onboard.core.executive.monitors import feasibility
 from onboard.core.mission.model import Mission, MissionError
 from onboard.core.mission.state import MissionEvent, MissionState, Transition, goal_problem, no_op, transition
 from onboard.core.mission.validate import check_limits
+from onboard.core.nav.confidence import confidence_radius_m
 from onboard.core.vehicle import Core
 
 log = logging.getLogger(__name__)
@@ -28,11 +29,19 @@ log = logging.getLogger(__name__)
 
 def readiness(ap: Core) -> tuple[bool, str]:
     """(True, "") when a START would pass the vehicle's own checks, else (False, why): the CAN bus, a valid
-    navigation solution, no latched actuator failsafe."""
+    navigation solution whose position's 95 % region is within ``[nav] start_position_95_m`` (the first
+    plan starts from the estimate), no latched actuator failsafe."""
     if ap.bus_lost:
         return False, f"CAN bus lost ({ap.bus_lost})"
     if not (ap.last_nav and ap.last_nav.valid):
         return False, "navigation not valid yet"
+    region_m = confidence_radius_m(ap.last_nav.position_std_max_m)
+    bound_m = ap.config.nav.start_position_95_m
+    if not region_m <= bound_m:
+        return False, (
+            f"navigation not good enough to start: the position's 95 % region is {region_m:.1f} m, wider "
+            f"than [nav] start_position_95_m {bound_m:g} m"
+        )
     if ap.actuator_failsafe:
         return False, "the actuator node reports its failsafe (the SAFE command sent while ARMED clears it)"
     return True, ""

@@ -111,6 +111,8 @@ class TickRecord:
         row["q_radps"] = n.q_radps
         row["r_radps"] = n.r_radps
         row["position_std_m"] = n.position_std_m
+        row["position_std_max_m"] = n.position_std_max_m
+        row["fixes_rejected"] = n.fixes_rejected
         row["current_north_mps"] = n.current_north_mps
         row["current_east_mps"] = n.current_east_mps
         d2 = self.nav_debug.fix_d2 if self.nav_debug is not None else None

@@ -4,10 +4,13 @@ It owns, for the goal in force (``status.goal_index``):
 
 - the plan: asked for at START (afresh, from where the vehicle is), after each goal reached (the next goal,
   from here), after a miss (the same goal pose) and when the water current turns out other than planned for;
-- arrival: a goal is reached only when the estimate crosses the goal line (guidance's ``arrived``) within
-  the goal's acceptance radius (its own ``radius_m``, else ``[mission] arrival_radius_m``:
-  :func:`~onboard.core.mission.model.goal_radius_m`) of the goal, and the estimate is itself that good
-  (its position 1-sigma no coarser than the radius; else HOLD: the arrival cannot be confirmed);
+- arrival, judged at 95 %: once guidance says ``arrived``, a goal is reached only when the estimate's 95 %
+  confidence region lies within the goal's acceptance radius (its own ``radius_m``, else ``[mission]
+  arrival_radius_m``: :func:`~onboard.core.mission.model.goal_radius_m`): the distance from the goal plus
+  the region's major semi-axis (2.448 sigma_max, :mod:`onboard.core.nav.confidence`) <= the radius. Short
+  of it the vehicle keeps homing until it passes the goal line (the region fits as it closes), then it is
+  a miss; a region wider than the radius on its own (the navigation cannot confirm any arrival) is HOLD
+  with the figures;
 - misses: farther off it is a miss, re-planned from where the vehicle is to the same goal pose, up to
   ``max_tries`` attempts, then HOLD with the reason;
 - re-plans on current: a path planned for one current (``[planner] current_aware``) is planned again when
@@ -33,6 +36,7 @@ from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
 from onboard.core.executive.monitors import LegMonitor
 from onboard.core.mission.model import goal_radius_m
 from onboard.core.mission.state import MissionEvent, MissionState
+from onboard.core.nav.confidence import CONFIDENCE_SCALE, confidence_radius_m
 from onboard.core.nav.types import NavState
 from onboard.core.plans import current_radius_m
 
@@ -118,21 +122,27 @@ class Goto:
         return Progress(text, self.goals_reached / n if n else math.nan)
 
     def arrived(self, ex: Plans, v: Vehicle, nav: NavState) -> None:
-        """The estimate crossed the goal line: reached within the arrival radius, else a miss."""
+        """Guidance says arrived: reached when the estimate's 95 % region lies within the goal's radius;
+        short of it, homing goes on until the goal line is passed; past it, a miss. A region wider than the
+        radius on its own: HOLD, the arrival cannot be confirmed (the figures in the reason)."""
         index = v.status.goal_index
         goal = v.mission.goals[index]
         miss_m = math.hypot(goal.x_m - nav.x_m, goal.y_m - nav.y_m)
         radius = goal_radius_m(goal, v.config.mission.arrival_radius_m)
-        std_m = nav.position_std_m
-        if not std_m <= radius:  # the estimate itself is less certain than the precision to claim
+        sigma_m = nav.position_std_max_m
+        region_m = confidence_radius_m(sigma_m)
+        if not region_m <= radius:  # the estimate itself is less certain than the precision to claim
             v.apply(
                 MissionEvent.HOLD,
-                f"goal {index} cannot be confirmed: the position is known to {std_m:.1f} m (1 sigma), "
-                f"coarser than the arrival radius {radius:g} m",
+                f"goal {index} cannot be confirmed: the position's 95 % region is {region_m:.1f} m "
+                f"({CONFIDENCE_SCALE:.2f} x {sigma_m:.2f} m, 1 sigma), wider than the arrival radius "
+                f"{radius:g} m",
                 severity=Severity.WARNING,
             )
             return
-        if miss_m <= radius:
+        if miss_m + region_m > radius and not self._past_goal(ex, nav, goal.x_m, goal.y_m):
+            return  # not confirmed yet: keep homing, the region fits as the vehicle closes
+        if miss_m + region_m <= radius:
             self.goals_reached += 1
             self.attempt = 1
             v.apply(MissionEvent.GOAL_REACHED, f"{miss_m:.2f} m from it")
@@ -146,8 +156,8 @@ class Goto:
         if self.attempt < tries:
             self.attempt += 1
             text = (
-                f"goal {index} missed by {miss_m:.2f} m (arrival radius {radius:g} m): "
-                f"re-planning, try {self.attempt} of {tries}"
+                f"goal {index} missed by {miss_m:.2f} m (+ {region_m:.2f} m at 95 %; arrival radius "
+                f"{radius:g} m): re-planning, try {self.attempt} of {tries}"
             )
             log.warning("%s", text)
             v.note(Severity.WARNING, text)
@@ -159,6 +169,14 @@ class Goto:
             f"goal {index} missed by {miss_m:.2f} m after {tries} tries",
             severity=Severity.WARNING,
         )
+
+    @staticmethod
+    def _past_goal(ex: Plans, nav: NavState, gx_m: float, gy_m: float) -> bool:
+        """The estimate is on or past the goal line (through the goal, across the path's final heading)."""
+        if ex.path is None:
+            return True
+        yaw = ex.path.sample(ex.path.length_m).yaw_rad
+        return (nav.x_m - gx_m) * math.cos(yaw) + (nav.y_m - gy_m) * math.sin(yaw) >= 0.0
 
     @staticmethod
     def _current_changed(ex: Plans, v: Vehicle, nav: NavState) -> bool:

@@ -9,8 +9,14 @@ exact and need no matrix library)::
     update  z = p + noise  (position fix, sigma ``fix_sigma_m``)
 
 A fix is applied only if its squared Mahalanobis distance d^2 = i_x^2 / S_x + i_y^2 / S_y (2 degrees of
-freedom) is at most ``gate_chi2``; otherwise it is rejected and counted, so an outlier never moves the
-estimate. The first valid fix initialises the position (before it: ``POSITION_MISSING``).
+freedom) is at most ``gate_chi2``; otherwise it is rejected and counted (``NavState.fixes_rejected``, the
+telemetry's ``fixes_rejected``), so an outlier never moves the estimate. The first valid fix initialises the
+position (before it: ``POSITION_MISSING``).
+
+The covariance is meant to be honest (the campaign's NEES columns measure it against the simulator's truth):
+dead reckoning grows it as the sensors' stated accuracies say (:func:`dead_reckoning_q`), a fix shrinks it
+by the accuracy it states, and the position is ``POSITION_INVALID`` when its 1-sigma exceeds
+``max_position_std_m`` (not after a fixed time: a good DVL dead-reckons longer than a poor one).
 Fix latency is ignored (a fix is applied at the step that sees it); the loop runs at 20 Hz and fixes are slow.
 
 The water current (and the speed through the water) is estimated apart, from the DVL's velocity over ground
@@ -62,8 +68,19 @@ class NavParams:
 
     - ``fix_sigma_m``: position-fix standard deviation, m; a fix that states a coarser accuracy of its own
       (POSITION_FIX ``std_m``) is weighted with that (the filter follows the sensor actually in use).
-    - ``dvl_noise_m_per_sqrt_s``: random-walk density of the dead-reckoned position, m/sqrt(s).
-    - ``stale_dvl_noise_m_per_sqrt_s``: the same without a fresh DVL velocity (coasting on the bias).
+    - Dead reckoning's covariance grows as the sensors' stated accuracies say (:func:`dead_reckoning_q`):
+      ``dvl_sigma_mps`` (a DVL sample's 1-sigma, held until the next: sigma^2 x the interval between
+      samples), ``heading_sigma_deg`` (the AHRS yaw's 1-sigma, rotating the velocity: (speed x sigma)^2 x
+      the tick), ``velocity_change_mps2`` (how fast the vehicle's velocity may change while a DVL sample
+      ages: a^2 x age^3, so a slow or lost DVL is honest about its held velocity) and
+      ``dvl_noise_m_per_sqrt_s``, the density of what none of them models (a floor), m/sqrt(s).
+    - ``stale_dvl_noise_m_per_sqrt_s``: the density without any DVL velocity (or attitude) to dead-reckon on
+      (coasting on the bias).
+    - ``max_position_std_m``: dead reckoning ends (``POSITION_INVALID``) when the position's 1-sigma major
+      semi-axis exceeds this, m: the filter's own covariance, not a fixed time, says when the position is
+      no longer worth steering by (``max_dead_reckoning_s``, a fixed 60 s, is gone).
+    - ``start_position_95_m``: START waits (the commander's readiness, "not now" with the figure) until the
+      position's 95 % region (2.448 sigma_max) is within this, m: the first plan starts from the estimate.
     - ``estimate_bias``: estimate a constant NED velocity bias (water current / DVL bias).
     - ``bias_walk_mps_per_sqrt_s``: random-walk density of that bias, (m/s)/sqrt(s).
     - ``initial_bias_sigma_mps``: its initial standard deviation, m/s (0.05: the bias of a bottom-track
@@ -79,7 +96,6 @@ class NavParams:
     - ``gate_chi2``: innovation gate on d^2 (2 dof; 13.8 = 99.9 %).
     - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``.
     - ``fix_timeout_s``: a fix older than this raises ``POSITION_STALE`` (dead reckoning, still valid).
-    - ``max_dead_reckoning_s``: beyond this without an accepted fix the position is ``POSITION_INVALID``.
     - ``dvl_timeout_s``: a DVL velocity older than this is ``DVL_STALE`` (dead reckoning coasts), s.
 
     Attitude and depth have no timeout of their own here: ``stale_after_s`` is FS_NAV_TMO_S, set by
@@ -91,10 +107,15 @@ class NavParams:
     REMOVED_KEYS: ClassVar[dict[str, str]] = {
         "ahrs_timeout_s": _MOVED_TO_FS_NAV_TMO_S,
         "depth_timeout_s": _MOVED_TO_FS_NAV_TMO_S,
+        "max_dead_reckoning_s": (
+            "dead reckoning is bounded by its covariance, not a time: set [nav] max_position_std_m instead"
+        ),
     }
 
     fix_sigma_m: float = 0.3
-    dvl_noise_m_per_sqrt_s: float = 0.05
+    dvl_noise_m_per_sqrt_s: float = 0.005
+    heading_sigma_deg: float = 1.0
+    velocity_change_mps2: float = 0.3
     stale_dvl_noise_m_per_sqrt_s: float = 0.5
     estimate_bias: bool = True
     bias_walk_mps_per_sqrt_s: float = 0.005
@@ -110,13 +131,17 @@ class NavParams:
     gate_chi2: float = 13.8
     max_consecutive_rejections: int = 5
     fix_timeout_s: float = 5.0
-    max_dead_reckoning_s: float = 60.0
+    max_position_std_m: float = 5.0
+    start_position_95_m: float = 10.0
     dvl_timeout_s: float = 1.0
     #: Attitude and depth older than this are stale (s): FS_NAV_TMO_S, handed over by CoreConfig.
     stale_after_s: float = field(default=NAV_TIMEOUT_DEFAULT_S, init=False)
     # Derived once (the step reads them every tick): variances and squared densities.
     fix_var_m2: float = field(init=False, repr=False)
-    q_pos_dvl: float = field(init=False, repr=False)
+    q_pos_floor: float = field(init=False, repr=False)
+    q_dvl_white: float = field(init=False, repr=False)
+    q_heading: float = field(init=False, repr=False)
+    q_velocity_change: float = field(init=False, repr=False)
     q_pos_stale: float = field(init=False, repr=False)
     q_bias: float = field(init=False, repr=False)
     initial_bias_var: float = field(init=False, repr=False)
@@ -132,17 +157,22 @@ class NavParams:
             "current_walk_mps_per_sqrt_s",
             "water_speed_walk_mps_per_sqrt_s",
             "sway_per_yaw_rate_mps_per_radps",
+            "heading_sigma_deg",
+            "velocity_change_mps2",
         ):
             require(getattr(self, name) >= 0.0, f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("current_sigma_mps", "dvl_sigma_mps", "water_sway_sigma_mps", "max_current_mps"):
             require(getattr(self, name) > 0.0, f"{name} must be > 0, got {getattr(self, name)}")
         require(self.gate_chi2 > 0.0, f"gate_chi2 must be > 0, got {self.gate_chi2}")
         require(self.max_consecutive_rejections >= 1, "max_consecutive_rejections must be >= 1")
-        timeouts = ("fix_timeout_s", "max_dead_reckoning_s", "dvl_timeout_s")
+        timeouts = ("fix_timeout_s", "max_position_std_m", "start_position_95_m", "dvl_timeout_s")
         for name in timeouts:
             require(getattr(self, name) > 0.0, f"{name} must be > 0, got {getattr(self, name)}")
         object.__setattr__(self, "fix_var_m2", self.fix_sigma_m**2)
-        object.__setattr__(self, "q_pos_dvl", self.dvl_noise_m_per_sqrt_s**2)
+        object.__setattr__(self, "q_pos_floor", self.dvl_noise_m_per_sqrt_s**2)
+        object.__setattr__(self, "q_dvl_white", self.dvl_sigma_mps**2)
+        object.__setattr__(self, "q_heading", math.radians(self.heading_sigma_deg) ** 2)
+        object.__setattr__(self, "q_velocity_change", self.velocity_change_mps2**2)
         object.__setattr__(self, "q_pos_stale", self.stale_dvl_noise_m_per_sqrt_s**2)
         object.__setattr__(self, "q_bias", self.bias_walk_mps_per_sqrt_s**2)
         initial_bias_var = self.initial_bias_sigma_mps**2 if self.estimate_bias else 0.0
@@ -210,6 +240,7 @@ class NavFilterState:
     seen_ahrs_t_s: float = -math.inf
     seen_depth_t_s: float = -math.inf
     accepted_fix_t_s: float = -math.inf
+    dvl_interval_s: float = 0.0  # between the latest two DVL samples (0: one or none yet)
     dvl: DvlVelocity | None = None
     ahrs: Ahrs | None = None
     depth: Depth | None = None
@@ -267,6 +298,23 @@ def _current_step(
     )
 
 
+def dead_reckoning_q(
+    params: NavParams, speed_mps: float, dvl_interval_s: float, dvl_age_s: float, dt_s: float
+) -> float:
+    """How fast the dead-reckoned position's variance grows per axis, m^2/s, as the sensors' stated
+    accuracies say: a DVL sample's noise held until the next (``dvl_sigma_mps``^2 x the interval), the
+    heading's noise rotating the velocity each tick ((speed x ``heading_sigma_deg``)^2 x dt), the velocity's
+    change while the sample ages (``velocity_change_mps2``^2 x age^3: the held velocity's error a x age,
+    integrated over the age) and the unmodelled floor (``dvl_noise_m_per_sqrt_s``^2)."""
+    held_s = max(dvl_interval_s, dt_s)
+    return (
+        params.q_pos_floor
+        + params.q_dvl_white * held_s
+        + params.q_heading * speed_mps * speed_mps * dt_s
+        + params.q_velocity_change * dvl_age_s**3
+    )
+
+
 def _age(now_s: float, t_sample_s: float | None) -> float:
     return math.inf if t_sample_s is None else max(0.0, now_s - t_sample_s)
 
@@ -288,10 +336,13 @@ def step(
     dvl, ahrs, depth = state.dvl, state.ahrs, state.depth
     seen_dvl_t_s, seen_ahrs_t_s = state.seen_dvl_t_s, state.seen_ahrs_t_s
     seen_depth_t_s = state.seen_depth_t_s
+    dvl_interval_s = state.dvl_interval_s
     d = inputs.dvl
     if d is not None and not d.t_sample_s <= seen_dvl_t_s:
         seen_dvl_t_s = d.t_sample_s if isfinite(d.t_sample_s) else seen_dvl_t_s
         if isfinite(d.u_mps) and isfinite(d.v_mps) and isfinite(d.w_mps) and isfinite(d.t_sample_s):
+            if dvl is not None:
+                dvl_interval_s = d.t_sample_s - dvl.t_sample_s
             dvl = d
         else:
             conditions |= NavCondition.NAN_INPUT
@@ -327,16 +378,18 @@ def step(
     dvl_fresh = dvl is not None and dvl_age <= params.dvl_timeout_s
     ahrs_fresh = ahrs is not None and ahrs_age <= params.stale_after_s
 
-    # 2. Predict with the DVL velocity rotated to NED (coast on the bias with more noise without it).
+    # 2. Predict with the DVL velocity rotated to NED, the latest sample held (a stale one too: the vehicle
+    # does not stop when its DVL does; the covariance grows with the sample's age); coast on the bias with
+    # more noise without any.
     fx, fy = state.x, state.y
     used_dvl = False
     # The DVL velocity in NED, once a tick: the position predict and the current filter both take it.
     v_ned = _horizontal_velocity(dvl, ahrs) if dvl is not None and ahrs is not None and ahrs_fresh else None
     if fx is not None and fy is not None and dt_s > 0.0:
-        if v_ned is not None and dvl_fresh:
+        if v_ned is not None:
             vx, vy = v_ned
-            q_pos = params.q_pos_dvl
-            used_dvl = True
+            q_pos = dead_reckoning_q(params, math.hypot(vx, vy), dvl_interval_s, dvl_age, dt_s)
+            used_dvl = dvl_fresh
         else:
             vx = vy = 0.0
             q_pos = params.q_pos_stale
@@ -395,7 +448,7 @@ def step(
     else:
         if fix_age > params.fix_timeout_s:
             conditions |= NavCondition.POSITION_STALE
-        if fix_age > params.max_dead_reckoning_s:
+        if not max(fx.p00, fy.p00) <= params.max_position_std_m**2:  # dead reckoning's sigma is too wide
             conditions |= NavCondition.POSITION_INVALID
     if dvl is None:
         conditions |= NavCondition.DVL_MISSING
@@ -434,7 +487,10 @@ def step(
         current_std_mps=current.current_std_mps if current else math.inf,
         water_speed_mps=current.u_w if current else 0.0,
         position_std_m=math.sqrt(max(fx.p00, 0.0) + max(fy.p00, 0.0)) if fx and fy else math.inf,
+        position_std_x_m=math.sqrt(max(fx.p00, 0.0)) if fx else math.inf,
+        position_std_y_m=math.sqrt(max(fy.p00, 0.0)) if fy else math.inf,
         position_age_s=fix_age,
+        fixes_rejected=fixes_rejected,
         velocity_age_s=dvl_age,
         attitude_age_s=ahrs_age,
         depth_age_s=depth_age,
@@ -446,6 +502,7 @@ def step(
         y=fy,
         last_fix_t_s=last_fix_t_s,
         accepted_fix_t_s=accepted_fix_t_s,
+        dvl_interval_s=dvl_interval_s,
         dvl=dvl,
         ahrs=ahrs,
         depth=depth,

@@ -78,7 +78,8 @@ class NavCondition(enum.IntFlag):
 
     ``*_MISSING``: never received (or never a valid sample); ``*_STALE``: older than the configured timeout;
     ``NAN_INPUT`` / ``FIX_REJECTED``: this step rejected a non-finite sample / an outlier fix (counted in the
-    filter state). ``POSITION_INVALID``: no fix yet, or dead reckoning for longer than allowed.
+    filter state). ``POSITION_INVALID``: no fix yet, or dead reckoning's 1-sigma wider than ``[nav]
+    max_position_std_m``.
     """
 
     POSITION_MISSING = enum.auto()
@@ -114,6 +115,10 @@ class NavState:
     difference between the DVL dead-reckoned and the fixed position rates (a bottom-track DVL's bias).
     ``current_north_mps`` / ``current_east_mps``: the estimated water current (NED, m/s; 1-sigma
     ``current_std_mps``); ``water_speed_mps``: the speed through the water (:mod:`onboard.core.nav.current`).
+    ``position_std_m``: the position's radial 1-sigma sqrt(P_xx + P_yy), m; ``position_std_x_m`` /
+    ``position_std_y_m`` each axis's (the filter's axes are independent: the covariance is their diagonal).
+    ``fixes_rejected``: position fixes refused by the innovation gate since boot (each also flags
+    ``FIX_REJECTED`` on its step).
     Ages are ``t_s - t_sample_s`` of the latest sample used (inf = never). ``conditions`` lists what is wrong.
     """
 
@@ -138,7 +143,10 @@ class NavState:
     current_std_mps: float = math.inf
     water_speed_mps: float = 0.0
     position_std_m: float = math.inf
+    position_std_x_m: float = math.inf
+    position_std_y_m: float = math.inf
     position_age_s: float = math.inf
+    fixes_rejected: int = 0
     velocity_age_s: float = math.inf
     attitude_age_s: float = math.inf
     depth_age_s: float = math.inf
@@ -149,6 +157,11 @@ class NavState:
         """The DVL's velocity over ground rotated to NED (north, east, down), m/s (computed once per state:
         the guidance and the controller both ask)."""
         return body_to_ned(self.roll_rad, self.pitch_rad, self.yaw_rad, self.u_mps, self.v_mps, self.w_mps)
+
+    @property
+    def position_std_max_m(self) -> float:
+        """The 1-sigma major semi-axis of the position's error ellipse, m (inf before the first fix)."""
+        return max(self.position_std_x_m, self.position_std_y_m)
 
     @property
     def position_valid(self) -> bool:
@@ -204,6 +217,8 @@ def nav_state_at(
         r_radps=r_radps,
         speed_mps=abs(u_mps),
         position_std_m=0.0,
+        position_std_x_m=0.0,
+        position_std_y_m=0.0,
         position_age_s=0.0,
         velocity_age_s=0.0,
         attitude_age_s=0.0,

@@ -389,11 +389,13 @@ def test_an_arrival_the_estimate_cannot_confirm_holds_with_the_reason() -> None:
     ap = started((Goal(20.0, 0.0, 1.0, 0.0),))
     tick(ap, 0.05)
     assert ap.last_nav is not None
-    at_goal = dataclasses.replace(ap.last_nav, x_m=20.0, y_m=0.05, position_std_m=3.6)
+    at_goal = dataclasses.replace(
+        ap.last_nav, x_m=20.0, y_m=0.05, position_std_m=3.6, position_std_x_m=2.55, position_std_y_m=2.55
+    )
     ap.executive.goto.arrived(ap.executive, ap, at_goal)
-    # THEN it does not claim the goal: it holds and says why
+    # THEN it does not claim the goal: it holds and says why (the 95 % region: 2.45 x 2.55 m)
     assert ap.status.state is S.HOLD and ap.goals_reached == 0
-    assert "cannot be confirmed" in ap.status.reason and "3.6 m" in ap.status.reason
+    assert "cannot be confirmed" in ap.status.reason and "6.2 m" in ap.status.reason
 
 
 def test_a_fence_that_arrives_while_the_plan_is_computed_is_planned_round() -> None:

@@ -187,12 +187,13 @@ def test_stale_inputs_are_flagged_with_their_age(age_s: str, stale: NavCondition
 
 
 def test_position_goes_stale_then_invalid_without_fixes() -> None:
+    # (issue 24: invalid when dead reckoning's sigma passes [nav] max_position_std_m, not after a fixed 60 s)
     state = NavFilterState.initial()
     _, state, _ = step(inputs(0.0, fix=PositionFix(0.0, 0.0, 0.0)), state, P, 0.0)
     nav, state, _ = step(inputs(P.fix_timeout_s + 1.0), state, P, P.fix_timeout_s + 1.0)
     assert nav.conditions & NavCondition.POSITION_STALE and nav.position_valid
-    t = P.max_dead_reckoning_s + 1.0
-    nav, _, _ = step(inputs(t), state, P, t)
+    t = 1000.0  # no DVL sample since 6 s: its held velocity's error grows with its age
+    nav, _, _ = step(NavInputs(ahrs=ahrs(t), depth=Depth(1.0, t)), state, P, t)
     assert nav.conditions & NavCondition.POSITION_INVALID and not nav.valid
 
 
