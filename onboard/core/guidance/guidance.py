@@ -192,6 +192,13 @@ class GuidanceParams:
         return new
 
 
+#: Arrival within the radius needs the path left (from the vehicle's projection) within this many radii:
+#: an approach's path left is its distance, or at most pi/2 of it along a half circle, so it never binds
+#: there; a loop of the path near the goal (a helix circle the planner put by it: with a goal's own radius of
+#: metres, within reach) is a full turn long (without it a 4 m radius arrives entering a circle 3 m off).
+ARRIVAL_PATH_LEFT_FACTOR = 2.0
+
+
 @dataclass(frozen=True)
 class GuidanceState:
     """Guidance memory for one path; start each new path from ``GuidanceState()``.
@@ -407,8 +414,12 @@ def step(
     if nav_ok:
         dist_end = math.hypot(x_a - end.x_m, y_a - end.y_m)
         radius_m = params.arrival_radius_m if arrival_radius_m is None else arrival_radius_m
-        at_end = dist_end <= radius_m and (
-            abs(yaw_error(end.yaw_rad, course_a)) <= params.arrival_yaw_tol_rad
+        # within the radius of the end along the path too: a loop that passes near the goal (a helix
+        # circle, its depth still to lose) is no arrival (:data:`ARRIVAL_PATH_LEFT_FACTOR`)
+        at_end = (
+            dist_end <= radius_m
+            and length - s_proj <= ARRIVAL_PATH_LEFT_FACTOR * radius_m
+            and abs(yaw_error(end.yaw_rad, course_a)) <= params.arrival_yaw_tol_rad
         )
         arrived = state.arrived or at_end or s_proj >= length
     else:

@@ -67,3 +67,13 @@ def test_goto_judges_an_arrival_by_the_goals_own_radius(radius_m: float, reached
     # THEN within its own radius the goal is reached (the mission COMPLETE); with the default, a miss
     assert (ap.status.state is MissionState.COMPLETE) is reached, ap.status.reason
     assert ap.goals_reached == (1 if reached else 0)
+
+
+def test_the_mission_file_door_keeps_the_radius_and_encodes_it_as_param2() -> None:
+    from onboard.adapters.mavlink.mission_protocol import items_from_mission
+    from onboard.app.mission_file import parse_mission
+
+    mission = parse_mission({"goals": [{"x_m": 10, "y_m": 0, "depth_m": 1, "radius_m": 3}]})
+    assert mission.goals[0].radius_m == 3.0
+    (item,), _ = items_from_mission(mission)
+    assert item.param2 == 3.0
