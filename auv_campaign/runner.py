@@ -54,6 +54,7 @@ from onboard.app.config import OnboardConfig
 from onboard.app.loop import ControlLoop
 from onboard.app.runtime import LISTEN, build_config, bus_limits_from_dbc
 from onboard.core.autopilot import Autopilot
+from onboard.core.executive.monitors import latest_end_s
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.validate import check_mission
 from onboard.core.params import BusLimits
@@ -181,11 +182,29 @@ def path_samples(legs: list[Path]) -> list[list[float]]:
     return samples
 
 
-def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float) -> float:
-    """``time_limit_factor`` x the nominal path time (length / speed + the start from rest), simulated s;
-    at least ``MIN_TIME_LIMIT_S`` (the bench reads 0 as "no limit")."""
+def time_limit_s(spec: RunSpec, length_m: float, speed_mps: float, supervised_s: float = 0.0) -> float:
+    """``time_limit_factor`` x the nominal path time (length / speed + the start from rest), simulated s, or
+    ``supervised_s`` if longer (:func:`supervised_bound_s`: the latest the vehicle's own leg monitors end
+    the mission, so a run RUNNING at the limit is one they failed to end, never one they were not given the
+    time to judge); at least ``MIN_TIME_LIMIT_S`` (the bench reads 0 as "no limit")."""
     nominal = length_m / speed_mps + ACCELERATION_ALLOWANCE_S
-    return max(MIN_TIME_LIMIT_S, round(spec.time_limit_factor * nominal, 2))
+    return max(MIN_TIME_LIMIT_S, round(spec.time_limit_factor * nominal, 2), round(supervised_s, 2))
+
+
+def supervised_bound_s(spec: RunSpec, cfg: OnboardConfig, lengths_m: list[float]) -> float:
+    """The latest the vehicle's leg monitors end the run's mission (simulated s, the start's allowance
+    included): :func:`onboard.core.executive.monitors.latest_end_s` (the one owner of that rule) for legs of
+    ``lengths_m`` (the nominal paths; one leg straight to the last goal where none was planned) towards each
+    goal from the one before, in the run's true current; 0 when the monitors set no bound (ETA off)."""
+    mis = spec.mission
+    points = [(mis.start[0], mis.start[1])] + [(g[0], g[1]) for g in mis.goals]
+    if len(lengths_m) != len(mis.goals):  # no nominal plan: one leg straight to the last goal
+        points = [points[0], points[-1]]
+    bearings = [math.atan2(b[1] - a[1], b[0] - a[0]) for a, b in itertools.pairwise(points)]
+    direction = math.radians(spec.current_dir_deg)
+    current = (spec.current_speed_mps * math.cos(direction), spec.current_speed_mps * math.sin(direction))
+    bound = latest_end_s(cfg.core, list(zip(lengths_m, bearings, strict=True)), current)
+    return bound + START_ALLOWANCE_S if math.isfinite(bound) else 0.0
 
 
 def vehicle_of(spec: RunSpec) -> VehicleParams:
@@ -214,7 +233,8 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
         if legs
         else math.hypot(spec.mission.goals[-1][0] - start[0], spec.mission.goals[-1][1] - start[1])
     )
-    limit = time_limit_s(spec, length, cfg.guidance.speed_mps)
+    lengths = [p.length_m for p in legs] if legs else [length]
+    limit = time_limit_s(spec, length, cfg.guidance.speed_mps, supervised_bound_s(spec, cfg, lengths))
     hil = HilConfig(
         bench=BenchConfig(
             time_mode="lockstep",

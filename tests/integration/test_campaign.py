@@ -333,3 +333,29 @@ def test_a_run_on_the_local_bus_is_the_run_on_pythons_virtual_bus(monkeypatch: p
     assert {k: v for k, v in local.row.items() if k != "wall_time_s"} == {
         k: v for k, v in virtual.row.items() if k != "wall_time_s"
     }
+
+
+def test_no_run_is_running_at_its_time_limit_the_limit_is_never_shorter_than_the_vehicles_own_bound() -> None:
+    # GIVEN the paper's turn in a 1.2 m/s current (strong_current.yaml): towards 90 deg the vehicle re-plans
+    # wide turns and flies 78 m of path for a 32 m goal; towards 180 it misses the goal and loops back (at
+    # the base both were RUNNING at the 73.4 s limit, twice the nominal time)
+    from auv_campaign.runner import onboard_config, supervised_bound_s
+    from onboard.core.executive.monitors import latest_end_s
+
+    spec = load_spec(Path(__file__).parents[2] / "hil_sim" / "campaigns" / "strong_current.yaml")
+    runs = {r.run_id: r for r in spec.runs}
+    for run_id in ("turn_s0_c1.2d90_basin_default_nominal", "turn_s0_c1.2d180_basin_default_nominal"):
+        run = runs[run_id]
+        # WHEN it is flown
+        row = fly(run).row
+        # THEN the limit is at least the latest the vehicle's own monitors end it (each goal's ETA in the true
+        # current, a window, the start), and the run ends before it: COMPLETE, or HOLD with the figure
+        cfg, towards = onboard_config(run), math.radians(run.current_dir_deg)
+        current = (1.2 * math.cos(towards), 1.2 * math.sin(towards))
+        own = latest_end_s(cfg.core, [(31.7, math.atan2(-7.0, 25.0))], current)
+        assert row["time_limit_s"] >= supervised_bound_s(run, cfg, [31.0]) > own > 73.4, row
+        assert not row["time_limit_reached"], row["final_reason"]
+        assert row["final_state"] in ("COMPLETE", "HOLD"), row["final_reason"]
+        if row["final_state"] == "HOLD":
+            figure = r"goal 0: .*(MIS_ETA_FACTOR|MIS_PROG_MPS|MIS_XTRACK|MIS_MG_MIN_MPS)"
+            assert re.search(figure, row["final_reason"]), row["final_reason"]

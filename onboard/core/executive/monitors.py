@@ -1,34 +1,45 @@
 """Leg monitors and the feasibility check: no mission stays RUNNING without progress (DUNE's PathController).
 
-Every leg (a goal, one try at it) is watched while :class:`~onboard.core.executive.goto.Goto` flies it, with
-the ``[mission]`` thresholds (:class:`~onboard.core.mission.params.MissionParams`):
+Every goal (all its tries) is watched while :class:`~onboard.core.executive.goto.Goto` flies it, with the
+``[mission]`` thresholds (:class:`~onboard.core.mission.params.MissionParams`):
 
 - **progress**: the vehicle's projection on the path flown (guidance's ``s_proj_m``) must advance, or its
   distance off the path shrink, by at least ``progress_min_mps`` x ``monitor_window_s`` over every window
   (what is left to fly is the path beyond the projection plus the way back onto it: a vehicle swept wide
   in a turn that comes back onto the path's end makes progress, one swept away loses it; a new path for
-  the same leg, e.g. a re-plan on current, continues the sum);
+  the same goal, a re-plan on current or the next try after a miss, continues the sum: a vehicle that
+  misses and loops back again and again is judged on the whole);
 - **cross-track**: off the path flown by more than ``cross_track_max_m`` + ``cross_track_sigmas`` x the
-  position estimate's 1-sigma for a whole window (the bound widens with the navigation's uncertainty);
+  position estimate's 1-sigma for ``cross_track_time_s`` (the bound widens with the navigation's
+  uncertainty);
 - **ETA**: each goal's expected time comes from its first plan and the current estimate then (the path's
   length at the speed over ground the vehicle can make good towards the goal, the guidance speed at most,
   plus the start from rest); a goal that takes ``eta_factor`` times that, over all its tries, has failed;
 - **feasibility**: a goal the vehicle cannot make good against the estimated current at
   ``min_made_good_mps`` (its top speed through the water is its speed map at the propeller's limit,
   ``LIM_RPS_MAX``) is refused at START (by the commander, :func:`feasibility`) and, while RUNNING, ends the
-  leg once it has lasted a window. The current is judged only when the estimate is good to
+  leg once it has lasted ``feasibility_time_s``. The current is judged only when the estimate is good to
   :data:`~onboard.core.nav.current.CURRENT_BELIEVED_STD_MPS`, and with the benefit of the doubt (its speed
   less its 1-sigma).
 
 A monitor that fires ends the leg with ``monitor_action`` (HOLD, or ABORT) and a reason that names the
 figure; the reason reaches the operator as the state's reason and a STATUSTEXT, as every HOLD's does.
 Pure: the vehicle's time is the caller's ``now_s``; the figures are the navigation estimate's.
+
+Why these times (measured over the repo's campaign specs, issue 23): the progress window stays 60 s because
+missions that complete make less than 0.1 m/s over shorter windows (head_current.yaml 1.6 m/s: 0.09 m/s over
+the first 30 s from rest; strong_current.yaml 1.5 m/s towards 0: -0.06 m/s over 45 s, swept wide in its
+turn); no completing run was ever beyond the cross-track bound, nor judged unable to make its goal good, so
+those two have times of their own, 20 s (DUNE: 15 m for 10 s); the ETA stays 4 x (head_current completes
+in up to 3.4 x the time its vehicle expects: along a straight the estimate cannot see a head current).
+:func:`latest_end_s` is the bound all this sets; the campaign's time limit is never shorter.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from onboard.core.config import CoreConfig
@@ -118,25 +129,63 @@ def feasibility(config: CoreConfig, nav: NavState, goal: Goal, goal_index: int) 
     )
 
 
+def expected_speed_mps(config: CoreConfig, current: tuple[float, float] | None, bearing_rad: float) -> float:
+    """The speed over ground (m/s) a leg towards ``bearing_rad`` is expected to be flown at: the guidance
+    speed, or the speed the vehicle can make good along the bearing against ``current`` (c_n, c_e; m/s) at
+    its top speed through the water if that is slower (<= 0: it cannot). ``current`` None: not known, the
+    guidance speed."""
+    speed = config.guidance.speed_mps
+    if current is not None:
+        top = water_speed_max_mps(config.control)
+        speed = min(speed, made_good_mps(current[0], current[1], bearing_rad, top))
+    return speed
+
+
 def expected_time_s(config: CoreConfig, nav: NavState, goal: Goal, length_m: float) -> float:
     """A leg's expected time (s): ``length_m`` of path at the speed over ground the vehicle can make good
-    towards ``goal`` in the estimated current (the guidance speed at most; the guidance speed while the
+    towards ``goal`` in the estimated current (:func:`expected_speed_mps`; the guidance speed while the
     current is not known), plus :data:`START_ALLOWANCE_S`. Infinite when it cannot make the goal good."""
-    speed = config.guidance.speed_mps
     current = believed_current(nav)
     dx, dy = goal.x_m - nav.x_m, goal.y_m - nav.y_m
-    if current is not None and math.hypot(dx, dy) > FEASIBILITY_MIN_DISTANCE_M:
-        top = water_speed_max_mps(config.control)
-        speed = min(speed, made_good_mps(current[0], current[1], math.atan2(dy, dx), top))
+    if not math.hypot(dx, dy) > FEASIBILITY_MIN_DISTANCE_M:
+        current = None
+    speed = expected_speed_mps(config, current, math.atan2(dy, dx))
     if not speed > 0.0:
         return math.inf
     return length_m / speed + START_ALLOWANCE_S
 
 
+def latest_end_s(
+    config: CoreConfig, legs: Sequence[tuple[float, float]], current_ne: tuple[float, float]
+) -> float:
+    """The latest time (s after START) by which the leg monitors end a mission whose legs ``(length_m,
+    bearing_rad)`` are flown in the water current ``current_ne`` (c_n, c_e; m/s), had the vehicle estimated
+    it right: per goal its ETA, ``eta_factor`` x :func:`expected_time_s` (the speed made good taken no
+    slower than ``min_made_good_mps``: a goal made good slower is the feasibility monitor's, which ends the
+    leg within its window), plus one monitor window for an estimate that is not the truth. A goal still
+    RUNNING after it has outlived every monitor. Infinite when the ETA monitor is off (``eta_factor`` 0),
+    or the feasibility monitor is (``min_made_good_mps`` 0) and a goal cannot be made good at all.
+
+    The campaign's time limit is never shorter (:func:`auv_campaign.runner.time_limit_s`): a run RUNNING at
+    it is one the vehicle's own supervision failed to end."""
+    p = config.mission
+    if not p.eta_factor > 0.0:
+        return math.inf
+    total_s = 0.0
+    for length_m, bearing_rad in legs:
+        speed = max(expected_speed_mps(config, current_ne, bearing_rad), p.min_made_good_mps)
+        if not speed > 0.0:
+            return math.inf
+        total_s += p.eta_factor * (length_m / speed + START_ALLOWANCE_S)
+    return total_s + max(p.monitor_window_s, p.cross_track_time_s, p.feasibility_time_s)
+
+
 @dataclass
 class LegMonitor:
-    """The monitors' memory for the leg flown (``key``: goal index and try; the ETA runs per goal, from its
-    first try: ``eta_goal``, ``start_s``). :meth:`check` once a tick."""
+    """The monitors' memory for the goal flown (``key``: goal index and try). Progress, the ETA and the
+    feasibility verdict run per goal, over all its tries (``eta_goal``, ``start_s``): a vehicle that misses
+    the goal and loops back to try again, again and again, is judged on the progress of the whole, not
+    afresh after every miss. :meth:`check` once a tick."""
 
     key: tuple[int, int] | None = None
     eta_goal: int | None = None
@@ -155,8 +204,8 @@ class LegMonitor:
         """Forget the leg (a START or RESUME flies afresh from where the vehicle is)."""
         self.key = self.eta_goal = None
 
-    def _begin(self, key: tuple[int, int], now_s: float) -> None:
-        self.key = key
+    def _begin(self, now_s: float) -> None:
+        """A new goal (or the same flown afresh after START / RESUME): its progress from 0."""
         self.progress_m, self._path, self._s_prev_m = 0.0, None, None
         self._samples = deque([(now_s, 0.0)])
         self._off_since_s = self._infeasible_since_s = None
@@ -177,9 +226,9 @@ class LegMonitor:
         afresh); ``s_proj_m`` / ``cross_track_m``: the vehicle on the path flown (guidance)."""
         p = config.mission
         index = key[0]
-        if key != self.key:
-            self._begin(key, now_s)
+        self.key = key  # a new try at the goal continues its progress (a new path for it continues the sum)
         if index != self.eta_goal:  # a new goal: its expected time from its first plan and the current now
+            self._begin(now_s)
             self.eta_goal, self.start_s = index, now_s
             self.expected_s = expected_time_s(config, nav, goal, path.length_m)
             self.expected_text = f"{path.length_m:.1f} m of path"
@@ -204,18 +253,18 @@ class LegMonitor:
                     f"(MIS_PROG_MPS {p.progress_min_mps:g} m/s: at least "
                     f"{p.progress_min_mps * (now_s - t0):.1f} m)"
                 )
-        # cross-track, the bound widened by the navigation's uncertainty
+        # cross-track, the bound widened by the navigation's uncertainty, for its own time
         if p.cross_track_max_m > 0.0:
             std = nav.position_std_m if math.isfinite(nav.position_std_m) else 0.0
             bound = p.cross_track_max_m + p.cross_track_sigmas * std
             if abs(cross_track_m) > bound:
                 if self._off_since_s is None:
                     self._off_since_s = now_s
-                if now_s - self._off_since_s >= window:
+                if now_s - self._off_since_s >= p.cross_track_time_s:
                     return (
-                        f"goal {index}: {abs(cross_track_m):.1f} m off the path for {window:g} s "
-                        f"(MIS_XTRACK_M {p.cross_track_max_m:g} m + {p.cross_track_sigmas:g} x the "
-                        f"position's 1 sigma {std:.1f} m = {bound:.1f} m)"
+                        f"goal {index}: {abs(cross_track_m):.1f} m off the path for "
+                        f"{p.cross_track_time_s:g} s (MIS_XTRACK_S; MIS_XTRACK_M {p.cross_track_max_m:g} m + "
+                        f"{p.cross_track_sigmas:g} x the position's 1 sigma {std:.1f} m = {bound:.1f} m)"
                     )
             else:
                 self._off_since_s = None
@@ -231,8 +280,8 @@ class LegMonitor:
         if why:
             if self._infeasible_since_s is None:
                 self._infeasible_since_s = now_s
-            if now_s - self._infeasible_since_s >= window:
-                return f"{why}, for {window:g} s"
+            if now_s - self._infeasible_since_s >= p.feasibility_time_s:
+                return f"{why}, for {p.feasibility_time_s:g} s (MIS_MG_S)"
         else:
             self._infeasible_since_s = None
         return ""
@@ -240,8 +289,10 @@ class LegMonitor:
 
 __all__ = [
     "LegMonitor",
+    "expected_speed_mps",
     "expected_time_s",
     "feasibility",
+    "latest_end_s",
     "made_good_mps",
     "water_speed_max_mps",
 ]

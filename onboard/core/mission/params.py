@@ -36,12 +36,12 @@ class MissionParams:
     stops within ``stop_distance_m``, the zone the validator keeps clear past every goal.
 
     The leg monitors (:mod:`onboard.core.executive.monitors`): less progress (along the path, or back
-    onto it) than ``progress_min_mps`` over ``monitor_window_s``; off the path by more than
-    ``cross_track_max_m`` (+ ``cross_track_sigmas`` x the position's 1-sigma) for the window; a goal that
-    takes ``eta_factor`` x its expected time; a goal the vehicle makes good slower than
-    ``min_made_good_mps`` against the estimated current for the window. Each ends the leg with
-    ``monitor_action``: ``hold`` (HOLD, the operator decides) or ``abort`` (ABORT). At START and RESUME
-    such a goal is refused (not now) with the figures.
+    onto it; all the tries at a goal together) than ``progress_min_mps`` over ``monitor_window_s``; off the
+    path by more than ``cross_track_max_m`` (+ ``cross_track_sigmas`` x the position's 1-sigma) for
+    ``cross_track_time_s``; a goal that takes ``eta_factor`` x its expected time; a goal the vehicle makes
+    good slower than ``min_made_good_mps`` against the estimated current for ``feasibility_time_s``. Each
+    ends the leg with ``monitor_action``: ``hold`` (HOLD, the operator decides) or ``abort`` (ABORT). At
+    START and RESUME such a goal is refused (not now) with the figures.
     """
 
     arrival_radius_m: float = param(
@@ -87,11 +87,13 @@ class MissionParams:
     # The leg monitors and the feasibility check (onboard/core/executive/monitors.py; DUNE's PathController).
     # Defaults generous enough that no mission of the repo's campaign specs that completes is stopped: they
     # catch the missions that cannot be flown (campaign hil_sim/campaigns/strong_current_monitors.yaml).
+    # Measured (issue 23): the progress window cannot be shorter (head_current 0.09 m/s over its first 30 s;
+    # strong_current 1.5 m/s towards 0 completes after -0.06 m/s over 45 s); cross-track and feasibility never
+    # fired in a completing run, so they get 20 s of their own; the ETA factor 4 (head_current: 3.4 x).
     monitor_action: MonitorAction = "hold"
     monitor_window_s: float = param(
         60.0, unit="s", min=5.0, max=600.0, mavlink="MIS_MON_WIN_S",
-        desc="leg monitors' window: progress measured over it; off the path or unable to make good "
-        "the goal this long ends the leg",
+        desc="leg monitors' window: progress (along the path, over all the tries at a goal) measured over it",
     )  # fmt: skip
     progress_min_mps: float = param(
         0.1, unit="m/s", min=0.0, max=2.0, mavlink="MIS_PROG_MPS",
@@ -101,7 +103,11 @@ class MissionParams:
     cross_track_max_m: float = param(
         15.0, unit="m", min=0.0, max=1000.0, mavlink="MIS_XTRACK_M",
         desc="off the path flown farther than this (plus cross_track_sigmas x the position's 1 sigma) "
-        "for the window ends the leg (0 = off)",
+        "for cross_track_time_s ends the leg (0 = off)",
+    )  # fmt: skip
+    cross_track_time_s: float = param(
+        20.0, unit="s", min=1.0, max=600.0, mavlink="MIS_XTRACK_S",
+        desc="off the path beyond the cross-track bound this long ends the leg",
     )  # fmt: skip
     cross_track_sigmas: float = param(
         3.0, min=0.0, max=10.0,
@@ -116,6 +122,10 @@ class MissionParams:
         0.25, unit="m/s", min=0.0, max=2.0, mavlink="MIS_MG_MIN_MPS",
         desc="a goal the vehicle makes good slower than this against the estimated current is refused "
         "at START and ends the leg while RUNNING (0 = off)",
+    )  # fmt: skip
+    feasibility_time_s: float = param(
+        20.0, unit="s", min=1.0, max=600.0, mavlink="MIS_MG_S",
+        desc="a goal judged unable to be made good this long while RUNNING ends the leg",
     )  # fmt: skip
 
     def __post_init__(self) -> None:

@@ -16,6 +16,7 @@ from onboard.core.executive.monitors import (
     LegMonitor,
     expected_time_s,
     feasibility,
+    latest_end_s,
     made_good_mps,
     water_speed_max_mps,
 )
@@ -116,8 +117,9 @@ def test_progress_below_the_minimum_over_a_window_ends_the_leg_with_the_figure()
 
 
 def test_coming_back_onto_the_path_is_progress_and_being_swept_off_it_is_not() -> None:
-    # GIVEN a leg whose vehicle was swept 15 m off the path in a turn, its projection stuck near the end
-    cfg, path = config(), straight()
+    # GIVEN a leg whose vehicle was swept 15 m off the path in a turn, its projection stuck near the end (the
+    # cross-track monitor off: this is the progress monitor's)
+    cfg, path = config(cross_track_max_m=0.0), straight()
     back, away = LegMonitor(), LegMonitor()
     t, why_back, why_away = 0.0, "", ""
     while t <= 60.0 and not (why_back or why_away):
@@ -139,6 +141,21 @@ def test_progress_at_the_guidance_speed_is_fine_and_a_re_plan_continues_the_sum(
     assert fly(mon, cfg, straight(), 0.5, 40.0, t0=20.5)[0] == ""
 
 
+def test_progress_is_judged_over_all_the_tries_at_a_goal_not_afresh_after_each_miss() -> None:
+    # GIVEN a goal whose every try ends in a miss 20 s after it began (a 30 s window: no try lasts one)
+    cfg, mon = config(eta_factor=0.0), LegMonitor()
+    t, why = 0.0, ""
+    # WHEN the vehicle loops on the spot, a new path per try, its projection never advancing
+    while t <= 100.0 and not why:
+        attempt = 1 + int(t // 20.0)
+        path = straight() if t % 20.0 == 0.0 else mon._path or straight()
+        why = mon.check(cfg, nav(), GOAL, (0, attempt), path, 0.0, 0.0, t)
+        t += 0.5
+    # THEN the goal has made no progress over a window of its tries, and that is named
+    assert why.startswith("goal 0: no progress, 0.0 m along the path or back onto it in 30 s"), why
+    assert t - 0.5 == pytest.approx(30.0)
+
+
 def test_progress_zero_turns_the_progress_monitor_off() -> None:
     # GIVEN MIS_PROG_MPS 0 WHEN the vehicle stands still for two windows THEN nothing fires
     assert fly(LegMonitor(), config(progress_min_mps=0.0, eta_factor=0.0), straight(), 0.0, 60.0)[0] == ""
@@ -147,15 +164,18 @@ def test_progress_zero_turns_the_progress_monitor_off() -> None:
 # --- cross-track -------------------------------------------------------------------------------------
 
 
-def test_off_the_path_beyond_the_bound_for_a_window_ends_the_leg() -> None:
-    # GIVEN a leg with MIS_XTRACK_M 15 and 3 sigma of widening (position 1-sigma 0.1 m: bound 15.3 m)
+def test_off_the_path_beyond_the_bound_for_its_own_time_ends_the_leg() -> None:
+    # GIVEN a leg with MIS_XTRACK_M 15 and 3 sigma of widening (position 1-sigma 0.1 m: bound 15.3 m), the
+    # monitors' window 30 s and the cross-track time MIS_XTRACK_S its default, 20 s (DUNE's is 10 s)
     cfg, path, mon = config(), straight(), LegMonitor()
+    assert cfg.mission.cross_track_time_s == 20.0
     # WHEN the vehicle runs along 16 m off the path
     why, t = fly(mon, cfg, path, 1.0, 60.0, cross_m=16.0)
-    # THEN after a window it has failed, with the distance and the bound
-    assert t == pytest.approx(30.0)
+    # THEN after the cross-track time (not the progress window) it has failed, with the distance and the bound
+    assert t == pytest.approx(20.0)
     assert why == (
-        "goal 0: 16.0 m off the path for 30 s (MIS_XTRACK_M 15 m + 3 x the position's 1 sigma 0.1 m = 15.3 m)"
+        "goal 0: 16.0 m off the path for 20 s (MIS_XTRACK_S; MIS_XTRACK_M 15 m + 3 x the position's 1 sigma "
+        "0.1 m = 15.3 m)"
     )
 
 
@@ -213,6 +233,24 @@ def test_the_expected_time_counts_the_current() -> None:
     assert expected_time_s(cfg, nav(current=(-1.65, 0.0), std=0.5), GOAL, 20.0) == pytest.approx(30.0)
 
 
+def test_the_latest_end_is_each_goals_eta_in_the_true_current_plus_a_window() -> None:
+    # GIVEN two legs of 20 m, north then east, MIS_ETA_FACTOR 4, the monitors' window 30 s
+    cfg = config()
+    legs = [(20.0, 0.0), (20.0, math.pi / 2.0)]
+    # WHEN the water is still THEN each goal may take 4 x (20 s + 10 s from rest), plus one window
+    assert latest_end_s(cfg, legs, (0.0, 0.0)) == pytest.approx(2 * 4.0 * 30.0 + 30.0)
+    # WHEN a 1.5 m/s current flows south THEN each goal is expected at the speed made good against it
+    top = water_speed_max_mps(cfg.control)
+    ahead, across = top - 1.5, min(cfg.guidance.speed_mps, math.sqrt(top**2 - 1.5**2))
+    assert latest_end_s(cfg, legs, (-1.5, 0.0)) == pytest.approx(
+        4.0 * (20.0 / ahead + 10.0) + 4.0 * (20.0 / across + 10.0) + 30.0
+    )
+    # WHEN the current is faster than the vehicle THEN the goal counts at MIS_MG_MIN_MPS (the feasibility
+    # monitor's, which ends it within its window); with the ETA off there is no bound
+    assert latest_end_s(cfg, legs[:1], (-2.5, 0.0)) == pytest.approx(4.0 * (20.0 / 0.25 + 10.0) + 30.0)
+    assert latest_end_s(config(eta_factor=0.0), legs, (0.0, 0.0)) == math.inf
+
+
 # --- feasibility -------------------------------------------------------------------------------------
 
 
@@ -230,17 +268,19 @@ def test_a_goal_that_cannot_be_made_good_against_the_current_is_named_with_the_f
     assert feasibility(config(min_made_good_mps=0.0), nav(current=(-2.0, 0.0)), GOAL, 0) == ""
 
 
-def test_while_running_an_infeasible_goal_for_a_window_ends_the_leg() -> None:
-    # GIVEN a leg in a 2.0 m/s cross current (faster than the vehicle can stem), progress monitor off
+def test_while_running_an_infeasible_goal_for_its_own_time_ends_the_leg() -> None:
+    # GIVEN a leg in a 2.0 m/s cross current (faster than the vehicle can stem), progress monitor off, the
+    # monitors' window 30 s and the feasibility time MIS_MG_S its default, 20 s
     cfg, path, mon = config(progress_min_mps=0.0), straight(), LegMonitor()
+    assert cfg.mission.feasibility_time_s == 20.0
     cross = nav(current=(0.0, 2.0))
-    # WHEN it is flown for a window THEN it has failed with the figures
+    # WHEN it is flown THEN after the feasibility time (not the window) it has failed with the figures
     why, t = fly(mon, cfg, path, 0.5, 60.0, n=cross)
-    assert t == pytest.approx(30.0)
+    assert t == pytest.approx(20.0)
     assert why.startswith(
         "current 2.00 m/s towards 90 deg; the vehicle makes good at most 0.00 m/s towards goal 0"
     )
-    assert why.endswith(", for 30 s")
+    assert why.endswith(", for 20 s (MIS_MG_S)")
 
 
 # --- in the vehicle: the commander at START, goto while RUNNING ---------------------------------------
