@@ -72,7 +72,9 @@ class NavParams:
       ``dvl_sigma_mps`` (a DVL sample's 1-sigma, held until the next: sigma^2 x the interval between
       samples), ``heading_sigma_deg`` (the AHRS yaw's 1-sigma, rotating the velocity: (speed x sigma)^2 x
       the tick), ``velocity_change_mps2`` (how fast the vehicle's velocity may change while a DVL sample
-      ages: a^2 x age^3, so a slow or lost DVL is honest about its held velocity) and
+      ages: a^2 x age^3, so a slow or lost DVL is honest about its held velocity), at most
+      ``held_velocity_sigma_max_mps`` (the held velocity's error stops growing there: a cruising vehicle
+      does not speed up for ever; cap^2 x age beyond) and
       ``dvl_noise_m_per_sqrt_s``, the density of what none of them models (a floor), m/sqrt(s).
     - ``stale_dvl_noise_m_per_sqrt_s``: the density without any DVL velocity (or attitude) to dead-reckon on
       (coasting on the bias).
@@ -116,6 +118,7 @@ class NavParams:
     dvl_noise_m_per_sqrt_s: float = 0.005
     heading_sigma_deg: float = 1.0
     velocity_change_mps2: float = 0.3
+    held_velocity_sigma_max_mps: float = 0.5
     stale_dvl_noise_m_per_sqrt_s: float = 0.5
     estimate_bias: bool = True
     bias_walk_mps_per_sqrt_s: float = 0.005
@@ -142,6 +145,7 @@ class NavParams:
     q_dvl_white: float = field(init=False, repr=False)
     q_heading: float = field(init=False, repr=False)
     q_velocity_change: float = field(init=False, repr=False)
+    q_held_max: float = field(init=False, repr=False)
     q_pos_stale: float = field(init=False, repr=False)
     q_bias: float = field(init=False, repr=False)
     initial_bias_var: float = field(init=False, repr=False)
@@ -159,6 +163,7 @@ class NavParams:
             "sway_per_yaw_rate_mps_per_radps",
             "heading_sigma_deg",
             "velocity_change_mps2",
+            "held_velocity_sigma_max_mps",
         ):
             require(getattr(self, name) >= 0.0, f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("current_sigma_mps", "dvl_sigma_mps", "water_sway_sigma_mps", "max_current_mps"):
@@ -173,6 +178,7 @@ class NavParams:
         object.__setattr__(self, "q_dvl_white", self.dvl_sigma_mps**2)
         object.__setattr__(self, "q_heading", math.radians(self.heading_sigma_deg) ** 2)
         object.__setattr__(self, "q_velocity_change", self.velocity_change_mps2**2)
+        object.__setattr__(self, "q_held_max", self.held_velocity_sigma_max_mps**2)
         object.__setattr__(self, "q_pos_stale", self.stale_dvl_noise_m_per_sqrt_s**2)
         object.__setattr__(self, "q_bias", self.bias_walk_mps_per_sqrt_s**2)
         initial_bias_var = self.initial_bias_sigma_mps**2 if self.estimate_bias else 0.0
@@ -302,16 +308,18 @@ def dead_reckoning_q(
     params: NavParams, speed_mps: float, dvl_interval_s: float, dvl_age_s: float, dt_s: float
 ) -> float:
     """How fast the dead-reckoned position's variance grows per axis, m^2/s, as the sensors' stated
-    accuracies say: a DVL sample's noise held until the next (``dvl_sigma_mps``^2 x the interval), the
+    accuracies say: a DVL sample's noise held until the next (``dvl_sigma_mps``^2 x the interval, or its
+    age when older), the
     heading's noise rotating the velocity each tick ((speed x ``heading_sigma_deg``)^2 x dt), the velocity's
     change while the sample ages (``velocity_change_mps2``^2 x age^3: the held velocity's error a x age,
-    integrated over the age) and the unmodelled floor (``dvl_noise_m_per_sqrt_s``^2)."""
-    held_s = max(dvl_interval_s, dt_s)
+    integrated over the age; at most ``held_velocity_sigma_max_mps``^2 x age, where a x age reaches it: the
+    two agree there) and the unmodelled floor (``dvl_noise_m_per_sqrt_s``^2)."""
+    held_s = max(dvl_interval_s, dvl_age_s, dt_s)  # a stale sample's noise is held for its whole age
     return (
         params.q_pos_floor
         + params.q_dvl_white * held_s
         + params.q_heading * speed_mps * speed_mps * dt_s
-        + params.q_velocity_change * dvl_age_s**3
+        + min(params.q_velocity_change * dvl_age_s**3, params.q_held_max * dvl_age_s)
     )
 
 
