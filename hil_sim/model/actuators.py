@@ -9,10 +9,12 @@ Both are evaluated *exactly* for a command held constant over a control period (
 the integrator can ask for the actuator positions at any RK4 stage time without adding integration error.
 
 The watchdog (issue 3 point 3): the actuator node holds the last valid command; when no valid command has
-come for ``timeout_periods`` control periods it goes to the failsafe (propeller off, fins neutral) and stays
-there (latched) until :func:`watchdog_rearm`. Ages are counted in ticks, never read from a clock, so lock-step
-runs are deterministic. Frame-level checks (CRC, alive counter) are the bus layer's job; it passes ``None``
-here for a missing or invalid frame. A command with a non-finite field is treated as invalid too.
+come for ``timeout_periods`` control periods it goes to the failsafe (propeller off, fins neutral here; the
+actuator node, :class:`hil_sim.bench_program.ActuatorNode`, sends the bus contract's ABORT stern planes
+instead) and stays there (latched) until :func:`watchdog_rearm`. Ages are counted in ticks, never read from
+a clock, so lock-step runs are deterministic. Frame-level checks (CRC, alive counter) are the bus layer's
+job; it passes ``None`` here for a missing or invalid frame. A command with a non-finite field is treated
+as invalid too.
 """
 
 from __future__ import annotations

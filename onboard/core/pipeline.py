@@ -86,7 +86,10 @@ class Pipeline:
         live = ap.actuators_live
         if state is MissionState.ABORT:
             command = saturate(
-                failsafe.abort_command(cfg.failsafe), self.controller_state.command, cfg.control.limits, dt_s
+                failsafe.abort_command(cfg.failsafe, nav_state.pitch_rad),
+                self.controller_state.command,
+                cfg.control.limits,
+                dt_s,
             )
             command = _propeller_off(command)
             self.controller_state = control.ControllerState(command=command)

@@ -72,7 +72,7 @@ class CounterCheck:
     A second sender on the same id (valid CRC, its own counter) shows as two interleaved streams: a frame
     that jumps from the last counter but continues the one before the last jump. That is counted as a
     conflicting sender, and the id is then distrusted: every frame is rejected (``conflicting_sender``: a
-    sensor goes stale, a command stream stops, so the actuators' watchdog holds them neutral) until
+    sensor goes stale, a command stream stops, so the actuators' watchdog fires: the node's ABORT) until
     :data:`QUIET_FRAMES` frames in a row come in step from one stream alone and :data:`QUIET_S` passed
     without a conflict (``t_s``: the receive time). The receiver also calls :meth:`distrust` for a frame
     over the id's rate (:meth:`onboard.protocol.codec.FrameReceiver.check_rates`).

@@ -18,7 +18,16 @@ class ActuatorMode(IntEnum):
 
     SAFE = 0  # fins neutral, propeller off
     ARMED = 1  # follow the commands
-    ABORT = 2  # propeller off, fins to surface
+    ABORT = 2  # propeller off, fins as commanded (stern nose up: to surface)
+
+
+#: The stern planes' nose-up angle of ABORT (deg; sent as a negative stern angle): the actuator node's own
+#: in its command watchdog's failsafe (nobody commands the fins then: the onboard, or the bus to it, failed)
+#: and the default of the onboard's ``[failsafe] abort_stern_deg``. Hard over on purpose: a positively
+#: buoyant hull pitched up a little is driven on along its axis by its buoyancy; pitched up hard it climbs
+#: nearly vertically and stops ahead (from 1.2 m/s: 3.6 m ahead at 1 m deep, 5.9 m at 5 m, against 22 m of
+#: glide with the fins neutral).
+ABORT_STERN_DEG = 15.0
 
 
 class MissionStateCode(IntEnum):

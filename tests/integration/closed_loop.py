@@ -51,6 +51,37 @@ def planned_samples(name: str, step_m: float = 0.05) -> tuple[list[list[float]],
     return samples, path.length_m
 
 
+def run_lockstep(
+    autopilot: Autopilot, loop_cfg: Any, hil_cfg: HilConfig, channel: str, timeout_s: float, what: str
+) -> tuple[ControlLoop, BusPort]:
+    """The real onboard loop (``autopilot``, lock-step) and the real bench on the virtual bus ``channel``,
+    each in a thread, until the bench ends (its duration, a stop state); TimeoutError after ``timeout_s``
+    wall seconds. The loop and its (closed) port for their statistics."""
+    codec = Codec()
+    port = BusPort(VirtualBus(channel=channel), lambda: 0.0, [codec.frame_id(c) for c in LISTEN], codec)
+    loop = ControlLoop(port, autopilot, loop_cfg)
+    stop_onboard = threading.Event()
+    onboard = threading.Thread(target=loop.run_lockstep, args=(stop_onboard,), daemon=True)
+    onboard.start()
+    stop_bench = threading.Event()
+    result: dict[str, Any] = {}
+
+    def bench() -> None:
+        result["bench"] = run_bench(hil_cfg, stop_bench, bus_override=VirtualBus(channel=channel))
+
+    thread = threading.Thread(target=bench, daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    stop_bench.set()
+    thread.join(5)
+    stop_onboard.set()
+    onboard.join(5)
+    port.close()
+    if "bench" not in result:
+        raise TimeoutError(f"{what}: the closed loop did not finish within {timeout_s} s")
+    return loop, port
+
+
 def fly(
     name: str,
     tmp: Path,
@@ -97,28 +128,7 @@ def fly(
     autopilot = Autopilot(cfg.core)
     autopilot.replace_mission(Mission((Goal(sc.goal[0], sc.goal[1], DEPTH_M, math.radians(sc.goal[2])),)))
     autopilot.request_autostart()
-    codec = Codec()
-    port = BusPort(VirtualBus(channel=channel), lambda: 0.0, [codec.frame_id(c) for c in LISTEN], codec)
-    loop = ControlLoop(port, autopilot, cfg.loop)
-    stop_onboard = threading.Event()
-    onboard = threading.Thread(target=loop.run_lockstep, args=(stop_onboard,), daemon=True)
-    onboard.start()
-    stop_bench = threading.Event()
-    result: dict[str, Any] = {}
-
-    def bench() -> None:
-        result["bench"] = run_bench(hil_cfg, stop_bench, bus_override=VirtualBus(channel=channel))
-
-    thread = threading.Thread(target=bench, daemon=True)
-    thread.start()
-    thread.join(timeout_s)
-    stop_bench.set()
-    thread.join(5)
-    stop_onboard.set()
-    onboard.join(5)
-    port.close()
-    if "bench" not in result:
-        raise TimeoutError(f"{name}: the closed loop did not finish within {timeout_s} s")
+    loop, port = run_lockstep(autopilot, cfg.loop, hil_cfg, channel, timeout_s, name)
     metrics = compute_metrics(read_truth(truth), samples, sc.goal)
     metrics["final_state"] = autopilot.status.state.name
     metrics["final_reason"] = autopilot.status.reason

@@ -19,7 +19,10 @@ Any of them -> ``FailsafeResult.abort`` with a reason; the loop feeds ``MissionE
 reason to the state machine and logs the flags in ``newly`` (set this tick) once, on the transition.
 
 Abort (the vehicle is positively buoyant): propeller off, rudder centred, both stern planes at
-``-abort_stern_deg`` (negative stern = nose up, by the sign convention), so it glides up to the surface.
+``-abort_stern_deg`` (negative stern = nose up, by the sign convention), so it pitches up hard and climbs
+to the surface, stopping ahead (from 1.2 m/s: 3.6 m at 1 m deep, 5.9 m at 5 m, 7.5 m at 10 m; never deeper).
+Its default is the bus contract's ``ABORT_STERN_DEG``, the angle the actuator node takes on its own when
+its command watchdog fires (the onboard, or the bus to it, is what failed).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from auv_common.config import check_declared, param, require
 from onboard.core.control.actuators import ActuatorCommand
 from onboard.core.nav.estimator import NAV_TIMEOUT_DEFAULT_S
 from onboard.core.nav.types import NavState
+from onboard.protocol.messages import ABORT_STERN_DEG
 
 #: The shortest navigation timeout that means one, s: the AHRS and the depth sensor send at 20 Hz
 #: (``hil_sim/params/isimi100.toml``), so a shorter timeout aborts on data as fresh as they send it (and a
@@ -70,7 +74,7 @@ class FailsafeParams:
         desc="the loop behind its schedule continuously for longer than this aborts",
     )  # fmt: skip
     abort_stern_deg: float = param(
-        15.0, unit="deg", min=0.0, max=45.0, mavlink="FS_ABORT_STN_DEG",
+        ABORT_STERN_DEG, unit="deg", min=0.0, max=45.0, mavlink="FS_ABORT_STN_DEG",
         desc="nose-up stern of the abort command",
     )  # fmt: skip
     abort_stern_rad: float = field(init=False, repr=False)
@@ -144,11 +148,23 @@ def check(
     return FailsafeResult(abort=bool(flags), flags=flags, newly=newly, reason="; ".join(reasons)), new_state
 
 
-def abort_command(params: FailsafeParams) -> ActuatorCommand:
-    """Propeller off, rudder centred, stern planes nose up (negative stern) to surface."""
+#: The steepest nose-up pitch an ABORT flies (rad): the stern planes, hard over until the pitch nears it,
+#: ease off (one radian of stern a radian of pitch error, within ``abort_stern_deg``) and go nose down
+#: beyond. Hard over to the end, a vehicle aborted at 1.2 m/s from 10 m or deeper pitched over the top
+#: (224 deg: a loop, upside down at the surface); held at 85 deg it climbs nearly vertically and stops ahead
+#: sooner (10 m deep: 7.5 m against 9.6 m).
+ABORT_PITCH_MAX_RAD = math.radians(85.0)
+
+
+def abort_command(params: FailsafeParams, pitch_rad: float = math.nan) -> ActuatorCommand:
+    """Propeller off, rudder centred, stern planes nose up (negative stern) to surface: hard over until the
+    pitch ``pitch_rad`` nears :data:`ABORT_PITCH_MAX_RAD` (not known, e.g. the AHRS silent: hard over)."""
+    stern = -params.abort_stern_rad
+    if math.isfinite(pitch_rad):
+        stern = min(max(pitch_rad - ABORT_PITCH_MAX_RAD, stern), params.abort_stern_rad)
     return ActuatorCommand(
         rudder_rad=0.0,
-        stern_port_rad=-params.abort_stern_rad,
-        stern_starboard_rad=-params.abort_stern_rad,
+        stern_port_rad=stern,
+        stern_starboard_rad=stern,
         propeller_rps=0.0,
     )

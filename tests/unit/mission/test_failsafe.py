@@ -11,12 +11,14 @@ from auv_common.config import ConfigError, from_table
 from onboard.core.control import ActuatorLimits, saturate
 from onboard.core.nav import NavCondition, NavState, nav_state_at
 from onboard.core.safety.failsafe import (
+    ABORT_PITCH_MAX_RAD,
     FailsafeFlag,
     FailsafeParams,
     FailsafeState,
     abort_command,
     check,
 )
+from onboard.protocol.messages import ABORT_STERN_DEG
 
 P = FailsafeParams(max_depth_m=10.0, area_x_min_m=-50, area_x_max_m=50, area_y_min_m=-20, area_y_max_m=20)
 OK = nav_state_at(0.0, 0.0, 1.0)
@@ -102,3 +104,22 @@ def test_abort_command_is_propeller_off_fins_to_surface() -> None:
 def test_bad_failsafe_config(table: dict[str, object]) -> None:
     with pytest.raises(ConfigError):
         from_table(FailsafeParams, table, "onboard.toml [failsafe]")
+
+
+def test_abort_command_eases_off_near_the_steepest_pitch_and_never_loops() -> None:
+    # GIVEN the default abort stern of 15 deg (the bus contract's ABORT_STERN_DEG)
+    params = FailsafeParams()
+    assert params.abort_stern_deg == ABORT_STERN_DEG
+    hard = -math.radians(ABORT_STERN_DEG)
+    # THEN level, or with the pitch unknown (the AHRS silent), the stern planes are hard over nose up
+    assert abort_command(params, 0.0).stern_rad == pytest.approx(hard)
+    assert abort_command(params, math.nan).stern_rad == pytest.approx(hard)
+    # nearing ABORT_PITCH_MAX_RAD they ease off, at it they are level, beyond it nose down (no loop)
+    assert hard < abort_command(params, ABORT_PITCH_MAX_RAD - 0.1).stern_rad < 0.0
+    assert abort_command(params, ABORT_PITCH_MAX_RAD).stern_rad == pytest.approx(0.0)
+    assert abort_command(params, ABORT_PITCH_MAX_RAD + 0.1).stern_rad > 0.0
+    assert abort_command(params, math.pi).stern_rad == pytest.approx(-hard)
+    # and the propeller is off, the rudder centred, whatever the pitch
+    for pitch in (0.0, 1.4, 3.0):
+        cmd = abort_command(params, pitch)
+        assert cmd.propeller_rps == 0.0 and cmd.rudder_rad == 0.0
