@@ -57,10 +57,21 @@ def test_a_measured_cross_track_widens_the_margin_in_still_water() -> None:
     assert _clearance_m(0.0, 1.5) >= 2.5 - 1e-6
 
 
-def test_where_the_grown_margin_finds_no_way_the_nominal_margin_plans_and_says_so() -> None:
+def test_a_goal_within_the_grown_margin_plans_with_the_nominal_margin_and_says_so() -> None:
     # GIVEN a goal 3.2 m from the obstacle's edge: inside the grown (1 + 3 m) margin, outside the nominal
     goal = Goal(20.0, 6.7, 1.0, 0.0)
     req = PlanRequest(1, "goal", 0, (0.0, 6.7, 0.0), 1.0, goal, FENCE, PLANNER, 2.0, 0.0, 2.0, 1.0, 1.0)
+    # THEN it is planned, not refused, and the note says with which margin
+    path = compute_plan(req)
+    assert "the obstacle margin grown for the current (4.0 m) finds no way: planned with 1 m" in path.note
+
+
+def test_where_the_grown_margin_finds_no_way_the_nominal_margin_plans_and_says_so() -> None:
+    # GIVEN the vehicle facing an obstacle 3.5 m ahead of it (edge), a goal behind it, in 1 m/s of current:
+    # grown by 3 m its edge is 0.5 m ahead and blocks both turning circles; the nominal 1 m does not
+    fence = ((5.5, 0.0, 1.0),)
+    goal = Goal(-20.0, 0.0, 1.0, math.pi)
+    req = PlanRequest(1, "goal", 0, (0.0, 0.0, 0.0), 1.0, goal, fence, PLANNER, 2.0, 0.0, 2.0, 1.0, 1.0)
     path = compute_plan(req)
     assert "the obstacle margin grown for the current (4.0 m) finds no way: planned with 1 m" in path.note
 
