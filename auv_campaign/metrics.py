@@ -11,12 +11,15 @@ Added here:
   of its yaw; a free yaw: the path's final heading), the last at the crossing the vehicle claimed; the
   onboard said COMPLETE and was still COMPLETE at the end of the run (after ``observe_after_end_s``), no
   false COMPLETE, the time limit not reached, the track never inside an obstacle (the whole run, the
-  observation after the end included) and, when the spec gives ``success.cross_track_m``, the max
-  cross-track within it;
+  observation after the end included), when the spec gives ``success.cross_track_m``, the max
+  cross-track within it and, when it gives ``success.depth_m``, the truth's depth where the vehicle first
+  said COMPLETE within it of the last goal's;
 - ``completed``: the vehicle said COMPLETE; ``arrived``: the truth crossed the last goal's line;
 - ``false_complete``: when the onboard first reported COMPLETE, the truth was farther from the last goal than
   its acceptance radius: the goal's own (the spec's ``radius_m``), else the onboard's ``[mission]
   arrival_radius_m``; a goal with its own radius is reached (``success``) within it (:func:`judge_goals`);
+  with ``success.depth_m``, also a truth deeper or shallower than that from the last goal's depth there (a
+  false COMPLETE in depth: a stuck depth sensor's);
 - the end (the first COMPLETE, HOLD or ABORT): ``end_state``, ``end_time_s``, ``glide_after_end_m`` (the
   horizontal distance travelled from then to the end of the run) and ``max_depth_after_end_m``;
 - ``nees_mean``, ``nees_in_band_fraction``, ``nees_above_fraction``: how honest the onboard's position
@@ -288,6 +291,10 @@ def run_row(
         miss_m = math.hypot(first_complete[_X] - gx, first_complete[_Y] - gy)
         # the radius the vehicle judged by: the goal's own, else its [mission] arrival_radius_m
         row["false_complete"] = miss_m > (last_radius_m if last_radius_m > 0.0 else arrival_radius_m)
+    depth_ok = spec.success_depth_m is None  # the truth's depth where the vehicle said COMPLETE
+    if first_complete is not None and spec.success_depth_m is not None:
+        depth_ok = abs(first_complete[_D] - gdepth) <= spec.success_depth_m
+        row["false_complete"] = row["false_complete"] or not depth_ok
     clear = row["min_clearance_m"] is None or row["min_clearance_m"] >= 0.0
     bound = spec.success_cross_track_m
     on_path = bound is None or (row["max_cross_track_m"] is not None and row["max_cross_track_m"] <= bound)
@@ -309,5 +316,6 @@ def run_row(
         and row["goals_reached"] == len(goal_figures)
         and on_path
         and clear
+        and depth_ok
     )
     return row

@@ -18,7 +18,9 @@
       faults: [[], [{kind: dvl_dropout, start_s: 10, duration_s: 20}]]   # a list per run; default: no axis
     time_limit_factor: 2.0            # default 2.0 (x the nominal time of the mission)
     observe_after_end_s: 20           # default 20: simulated s the run goes on after COMPLETE, HOLD or ABORT
-    success: {position_m: 0.3, course_deg: 10, cross_track_m: 2}   # defaults 0.3 m, 10 deg, no path bound
+    success: {position_m: 0.3, course_deg: 10, cross_track_m: 2, depth_m: 0.5}   # defaults 0.3 m, 10 deg,
+                                      # no path bound, no depth bound (the truth's depth where the vehicle
+                                      # said COMPLETE: beyond it, a false COMPLETE)
 
 At least one of ``missions`` / ``random_missions``. Missions are the listed ones, then the random ones
 (:func:`random_missions`, names r0, r1, ...). The runs are ``itertools.product`` of missions, seeds,
@@ -108,7 +110,7 @@ _KEY_OF_FIELD = {
     "radius": "radius_m", "arrival_radius": "radius_m",
 }  # fmt: skip
 _RANDOM_KEYS = ("count", "seed", "area_m", "obstacles", "radius_m", "depth_m", "goals", "min_distance_m")
-_SUCCESS_KEYS = ("position_m", "course_deg", "cross_track_m")
+_SUCCESS_KEYS = ("position_m", "course_deg", "cross_track_m", "depth_m")
 #: The default of ``observe_after_end_s`` (simulated s after the end: a glide, a sink, a collision show).
 OBSERVE_AFTER_END_S = 20.0
 #: The most ``observe_after_end_s`` may ask (simulated s).
@@ -231,7 +233,9 @@ class RunSpec:
     variant, ``vehicle_label`` ("nominal" or ``v<index>``); ``time_limit_factor`` times the mission's
     nominal time is the run's time limit; a success needs every goal's position within
     ``success_position_m`` (m) and course within ``success_course_deg`` (deg), and the path within
-    ``success_cross_track_m`` (m) of the plan when it is given; the run goes on ``observe_after_end_s``
+    ``success_cross_track_m`` (m) of the plan when it is given, and the truth's depth where the vehicle said
+    COMPLETE within ``success_depth_m`` (m) of the last goal's when it is given (beyond it the COMPLETE is a
+    false one); the run goes on ``observe_after_end_s``
     simulated seconds after the end (COMPLETE, HOLD or ABORT).
     """
 
@@ -251,6 +255,7 @@ class RunSpec:
     success_course_deg: float
     success_cross_track_m: float | None = None
     observe_after_end_s: float = OBSERVE_AFTER_END_S
+    success_depth_m: float | None = None
     #: the bench's faults for this run (:mod:`hil_sim.model.faults`) and the run id's label of them ("": the
     #: spec does not sweep faults)
     faults: tuple[Fault, ...] = ()
@@ -293,27 +298,31 @@ class RunSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (pairs as lists); :meth:`from_dict` restores the tuples."""
-        return {
-            "run_id": self.run_id,
-            "mission": self.mission.to_dict(),
-            "seed": self.seed,
-            "current_speed_mps": self.current_speed_mps,
-            "current_dir_deg": self.current_dir_deg,
-            "profile": self.profile,
-            "onboard": [[k, _thaw(v)] for k, v in self.onboard],
-            "onboard_label": self.onboard_label,
-            "vehicle_scale": [[k, v] for k, v in self.vehicle_scale],
-            "vehicle_set": [[k, _thaw(v)] for k, v in self.vehicle_set],
-            "vehicle_label": self.vehicle_label,
-            "time_limit_factor": self.time_limit_factor,
-            "success_position_m": self.success_position_m,
-            "success_course_deg": self.success_course_deg,
-            "success_cross_track_m": self.success_cross_track_m,
-            "observe_after_end_s": self.observe_after_end_s,
-        } | (
-            {"faults": [fault_model.to_dict(f) for f in self.faults], "faults_label": self.faults_label}
-            if self.faults_label
-            else {}
+        return (
+            {
+                "run_id": self.run_id,
+                "mission": self.mission.to_dict(),
+                "seed": self.seed,
+                "current_speed_mps": self.current_speed_mps,
+                "current_dir_deg": self.current_dir_deg,
+                "profile": self.profile,
+                "onboard": [[k, _thaw(v)] for k, v in self.onboard],
+                "onboard_label": self.onboard_label,
+                "vehicle_scale": [[k, v] for k, v in self.vehicle_scale],
+                "vehicle_set": [[k, _thaw(v)] for k, v in self.vehicle_set],
+                "vehicle_label": self.vehicle_label,
+                "time_limit_factor": self.time_limit_factor,
+                "success_position_m": self.success_position_m,
+                "success_course_deg": self.success_course_deg,
+                "success_cross_track_m": self.success_cross_track_m,
+                "observe_after_end_s": self.observe_after_end_s,
+            }
+            | ({"success_depth_m": self.success_depth_m} if self.success_depth_m is not None else {})
+            | (
+                {"faults": [fault_model.to_dict(f) for f in self.faults], "faults_label": self.faults_label}
+                if self.faults_label
+                else {}
+            )
         )
 
     @staticmethod
@@ -338,6 +347,7 @@ class RunSpec:
                 None if d.get("success_cross_track_m") is None else float(d["success_cross_track_m"])
             ),
             observe_after_end_s=float(d.get("observe_after_end_s", OBSERVE_AFTER_END_S)),
+            success_depth_m=None if d.get("success_depth_m") is None else float(d["success_depth_m"]),
             faults=fault_model.parse_faults(d.get("faults", [])),
             faults_label=str(d.get("faults_label", "")),
         )
@@ -950,6 +960,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
         if success.get("cross_track_m") is None
         else _positive("success.cross_track_m", success["cross_track_m"])
     )
+    depth_m = None if success.get("depth_m") is None else _positive("success.depth_m", success["depth_m"])
     observe_s = _number("observe_after_end_s", top.get("observe_after_end_s", OBSERVE_AFTER_END_S))
     if not 0.0 <= observe_s <= MAX_OBSERVE_AFTER_END_S:
         raise _Invalid(
@@ -999,6 +1010,7 @@ def _parse(data: Any, where: str, seed_offset: int, random_seed_offset: int) -> 
                 success_course_deg=course_deg,
                 success_cross_track_m=cross_track_m,
                 observe_after_end_s=observe_s,
+                success_depth_m=depth_m,
                 faults=faults,
                 faults_label=f_label,
             )

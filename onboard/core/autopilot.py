@@ -67,6 +67,7 @@ class Autopilot:
     bus_lost: str = ""  # why the CAN bus is lost ("" while it is up): BusLost / BusBack
     bus_abort: MissionStatus | None = None  # the status the bus loss aborted into (BusBack undoes only it)
     now_s: float = 0.0  # the time of the latest step (s, the loop's time base)
+    faults_named: str = ""  # the faults named on this mission (diagnosis.DiagnosisState.named_text)
 
     # --- what the links read --------------------------------------------------------------------
     @property

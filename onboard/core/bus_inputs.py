@@ -2,7 +2,8 @@
 
 The bus messages (:mod:`onboard.protocol.messages`) and the navigation types (:mod:`onboard.core.nav.types`)
 share their units and conventions (SI, radians, NED / FRD, the sample time ``t_sample_s``); this is the one
-place that copies the one into the other (and reads the actuator node's failsafe bit), so the decision code
+place that copies the one into the other (and reads the actuator node's failsafe bit and its feedback for
+the fault detectors), so the decision code
 (the commander, the executive, the pipeline's stages) never sees a bus message.
 """
 
@@ -12,6 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from onboard.core.nav.types import Ahrs, Depth, DvlVelocity, NavInputs, PositionFix
+from onboard.core.safety.diagnosis import ActuatorFeedback
 from onboard.protocol import messages as m
 
 
@@ -49,3 +51,16 @@ def actuator_failsafe(cache: Mapping[type, Any]) -> bool:
     prop: m.PropStatus | None = cache.get(m.PropStatus)
     fin: m.FinStatus | None = cache.get(m.FinStatus)
     return bool((prop is not None and prop.failsafe) or (fin is not None and fin.failsafe))
+
+
+def actuator_feedback(cache: Mapping[type, Any]) -> ActuatorFeedback:
+    """What the actuator node reports of its fins (FIN_STATUS) and propeller (PROP_STATUS), for the fault
+    detectors (:mod:`onboard.core.safety.diagnosis`)."""
+    prop: m.PropStatus | None = cache.get(m.PropStatus)
+    fin: m.FinStatus | None = cache.get(m.FinStatus)
+    return ActuatorFeedback(
+        fins_rad=(fin.rudder_rad, fin.stern_port_rad, fin.stern_starboard_rad) if fin is not None else None,
+        fins_t_s=fin.t_sample_s if fin is not None else float("-inf"),
+        propeller_rps=prop.propeller_rps if prop is not None else None,
+        propeller_t_s=prop.t_sample_s if prop is not None else float("-inf"),
+    )

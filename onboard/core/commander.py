@@ -112,6 +112,7 @@ def apply(
     if not result.accepted:
         log.debug("mission event %s rejected: %s", event.value, result.reason)
         return result
+    result = _with_faults(ap, result)
     before = ap.status.state
     ap.status = result.status
     after = result.status.state
@@ -124,6 +125,23 @@ def apply(
     if after is not MissionState.ARMED:
         ap.autostart_pending = False
     return result
+
+
+#: The ends of a mission, whose reason names the faults the vehicle named on it.
+_ENDS = (MissionState.COMPLETE, MissionState.HOLD, MissionState.ABORT)
+
+
+def _with_faults(ap: Core, result: Transition) -> Transition:
+    """An end of a mission (COMPLETE, HOLD, ABORT) with the faults named on it appended to its reason (a
+    campaign's ``final_reason``, the operator's last word): those its own detail does not name already."""
+    named = ap.faults_named
+    if not named or result.status.state not in _ENDS or result.status.state is ap.status.state:
+        return result
+    missing = [part for part in named.split("; ") if part.split(" ", 1)[0] not in result.reason]
+    if not missing:
+        return result
+    reason = f"{result.reason}; faults named: {'; '.join(missing)}"
+    return replace(result, status=replace(result.status, reason=reason), reason=reason)
 
 
 def _event(

@@ -9,12 +9,13 @@ from onboard.core.guidance.guidance import GuidanceParams
 from onboard.core.mission.params import MissionParams
 from onboard.core.nav.estimator import NavParams
 from onboard.core.planner.config import PlannerConfig
+from onboard.core.safety.diagnosis import DiagnosisParams
 from onboard.core.safety.failsafe import FailsafeParams
 
 
 @dataclass(frozen=True)
 class CoreConfig:
-    """[planner], [nav], [guidance], [control], [failsafe], [mission] of ``onboard.toml``."""
+    """[planner], [nav], [guidance], [control], [failsafe], [mission], [diagnosis] of ``onboard.toml``."""
 
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     nav: NavParams = field(default_factory=NavParams)
@@ -22,6 +23,7 @@ class CoreConfig:
     control: ControlParams = field(default_factory=ControlParams)
     failsafe: FailsafeParams = field(default_factory=FailsafeParams)
     mission: MissionParams = field(default_factory=MissionParams)
+    diagnosis: DiagnosisParams = field(default_factory=DiagnosisParams)
 
     def __post_init__(self) -> None:
         # One staleness timeout: the estimator marks attitude and depth stale after the operator's

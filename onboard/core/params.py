@@ -158,6 +158,7 @@ SECTIONS: tuple[str, ...] = (
     "guidance",
     "mission",
     "failsafe",
+    "diagnosis",
 )
 
 

@@ -1,7 +1,8 @@
 """The tick pipeline: one control tick, stage by stage, into one :class:`~onboard.core.record.TickRecord`.
 
-nav -> failsafes -> executive (the active maneuver, with guidance on its path) -> PD -> saturation and the
-state's output. :meth:`Pipeline.tick` runs them in that order; each stage is a pure step (``step(inputs,
+nav -> failsafes (and the fault detectors, :mod:`onboard.core.safety.diagnosis`) -> executive (the active
+maneuver, with guidance on its path) -> PD -> saturation and the state's output. :meth:`Pipeline.tick`
+runs them in that order; each stage is a pure step (``step(inputs,
 state, params, dt_s) -> (output, new_state, debug)``) whose memory this object keeps, and whose output and
 debug go into the tick's record. No clock, no bus, no threads: the caller gives the latest-value cache of bus
 messages, ``now_s`` and ``dt_s`` (:meth:`onboard.core.autopilot.Autopilot.step`). Events a stage raises (a
@@ -23,14 +24,14 @@ from typing import Any
 
 from onboard.core import commands as c
 from onboard.core import control, nav
-from onboard.core.bus_inputs import actuator_failsafe, nav_inputs
+from onboard.core.bus_inputs import actuator_failsafe, actuator_feedback, nav_inputs
 from onboard.core.control.actuators import NEUTRAL, ActuatorCommand, saturate
 from onboard.core.control.pd import ControlDebug
 from onboard.core.executive.surface import run_in_rps
 from onboard.core.guidance.guidance import GuidanceDebug, GuidanceReference
 from onboard.core.mission.state import MissionEvent, MissionState
 from onboard.core.record import TickRecord
-from onboard.core.safety import failsafe
+from onboard.core.safety import diagnosis, failsafe
 from onboard.core.safety.failsafe import FailsafeFlag
 from onboard.core.vehicle import Core
 from onboard.protocol import messages as m
@@ -43,6 +44,9 @@ class Pipeline:
     nav_state: nav.NavFilterState = field(default_factory=nav.NavFilterState.initial)
     failsafe_state: failsafe.FailsafeState = field(default_factory=failsafe.FailsafeState)
     controller_state: control.ControllerState = field(default_factory=control.ControllerState)
+    diagnosis_state: diagnosis.DiagnosisState = field(default_factory=diagnosis.DiagnosisState)
+    _state_before: MissionState = MissionState.IDLE  # the state at the previous tick (a START restarts
+    # the mission's faults)
 
     def new_path(self) -> None:
         """A new path is flown: the PD's error memory starts afresh (the command it is at stays)."""
@@ -53,11 +57,13 @@ class Pipeline:
         cfg = ap.config
         ap.now_s = now_s
         # 1. navigation
-        nav_state, self.nav_state, nav_debug = nav.step(nav_inputs(cache), self.nav_state, cfg.nav, now_s)
+        inputs = nav_inputs(cache)
+        nav_state, self.nav_state, nav_debug = nav.step(inputs, self.nav_state, cfg.nav, now_s)
         ap.last_nav = nav_state
         ap.actuator_failsafe = actuator_failsafe(cache)
-        # 2. failsafes
+        # 2. failsafes, then the faults the vehicle names (each with its reaction)
         fs_flags = self._failsafes(ap, nav_state)
+        faults, measured = self._diagnose(ap, cache, inputs.position, nav_debug, now_s, dt_s)
         # 3. the executive: the active maneuver, guidance on its path
         leg = ap.executive.step(ap, nav_state, dt_s)
         # 4. PD (saturated inside)
@@ -123,6 +129,8 @@ class Pipeline:
             nav_debug=nav_debug,
             guidance_debug=guidance_debug,
             control_debug=control_debug,
+            fault_flags=faults,
+            fault_measured=measured,
         )
 
     def _failsafes(self, ap: Core, nav_state: nav.NavState) -> FailsafeFlag:
@@ -144,6 +152,58 @@ class Pipeline:
         elif ap.actuator_failsafe:
             ap.apply(MissionEvent.FAILSAFE, detail="the actuator node is in its failsafe")
         return result.flags
+
+    def _diagnose(
+        self,
+        ap: Core,
+        cache: Mapping[type, Any],
+        fix: nav.PositionFix | None,
+        nav_debug: nav.NavDebug,
+        now_s: float,
+        dt_s: float,
+    ) -> tuple[diagnosis.FaultFlag, diagnosis.Measured]:
+        """The fault detectors (:mod:`onboard.core.safety.diagnosis`) on this tick; each fault named is said
+        (a note: one STATUSTEXT, a flight-log event) and answered by its reaction through the one place
+        transitions happen: ABORT (a FAILSAFE event) while the vehicle may move, HOLD while RUNNING."""
+        cfg, state = ap.config, ap.status.state
+        if state is MissionState.RUNNING and self._state_before not in (
+            MissionState.RUNNING,
+            MissionState.HOLD,
+        ):
+            self.diagnosis_state = diagnosis.start_mission(self.diagnosis_state, now_s)
+        self._state_before = state
+        assert ap.last_nav is not None  # set by this tick's navigation
+        inputs = diagnosis.DiagnosisInputs(
+            nav=ap.last_nav,
+            filter=self.nav_state,
+            nav_debug=nav_debug,
+            fix=fix,
+            feedback=actuator_feedback(cache),
+            command=self.controller_state.command,
+            speed_to_rps=(cfg.control.speed_map_mps, cfg.control.speed_map_rps),
+            fix_sigma_m=cfg.nav.fix_sigma_m,
+            actuators_follow=state in (MissionState.RUNNING, MissionState.HOLD),
+            fix_timeout_s=cfg.nav.fix_timeout_s,
+            dvl_timeout_s=cfg.nav.dvl_timeout_s,
+        )
+        result, self.diagnosis_state = diagnosis.step(
+            inputs, self.diagnosis_state, cfg.diagnosis, now_s, dt_s
+        )
+        ap.faults_named = self.diagnosis_state.named_text()
+        for found in result.found:
+            if (
+                found.reaction is diagnosis.Reaction.ABORT
+                and ap.status.active
+                and state is not MissionState.ABORT
+            ):
+                ap.apply(MissionEvent.FAILSAFE, detail=found.text)
+            elif found.reaction is diagnosis.Reaction.HOLD and ap.status.state is MissionState.RUNNING:
+                ap.apply(MissionEvent.HOLD, detail=found.text, severity=c.Severity.WARNING)
+            else:
+                ap.note(c.Severity.WARNING, found.text)
+        for text in result.cleared:
+            ap.note(c.Severity.NOTICE, text)
+        return result.flags, result.measured
 
 
 _NO_FAILSAFE = FailsafeFlag(0)

@@ -25,6 +25,7 @@ from onboard.core.guidance.guidance import GuidanceDebug, GuidanceReference
 from onboard.core.mission.state import MissionState, MissionStatus
 from onboard.core.nav.estimator import NavDebug
 from onboard.core.nav.types import NavState
+from onboard.core.safety.diagnosis import FaultFlag, Measured
 from onboard.core.safety.failsafe import FailsafeFlag
 from onboard.protocol import messages as m
 
@@ -38,7 +39,8 @@ class TickRecord:
     gate, None before the first step), ``failsafe_flags`` (the checks failing this tick), ``reference``
     (guidance's desired state and errors, None when no path is flown) with ``guidance_debug``, and
     ``control_debug`` (the PD's terms, None when the PD did not run), ``planner_error`` (the last plan's
-    failure, "" when it succeeded).
+    failure, "" when it succeeded), ``fault_flags`` (the faults the vehicle names,
+    :mod:`onboard.core.safety.diagnosis`) with ``fault_measured`` (the detectors' figures).
     """
 
     command: ActuatorCommand
@@ -52,6 +54,8 @@ class TickRecord:
     nav_debug: NavDebug | None = None
     guidance_debug: GuidanceDebug | None = None
     control_debug: ControlDebug | None = None
+    fault_flags: FaultFlag = FaultFlag(0)  # noqa: RUF009 (an immutable IntFlag value)
+    fault_measured: Measured | None = None
 
     @property
     def rudder_rad(self) -> float:
@@ -124,12 +128,20 @@ class TickRecord:
         p = self.control_debug
         row["rps_ff"] = p.rps_ff if p is not None else math.nan
         row["rudder_ff_rad"] = p.rudder_ff_rad if p is not None else math.nan
+        row["fault_flags"] = int(self.fault_flags)
+        f = self.fault_measured if self.fault_measured is not None else _NO_MEASURED
+        row["fin_error_deg"] = f.fin_error_deg
+        row["heading_error_deg"] = f.heading_error_deg
+        row["depth_innovation_m"] = f.depth_innovation_m
+        row["thrust_ratio"] = f.thrust_ratio
         return row
 
     def telemetry_row(self) -> dict[str, float | int | str]:
         """:meth:`row` (the loop's :class:`~onboard.app.loop.StepResult` protocol asks for this name)."""
         return self.row()
 
+
+_NO_MEASURED = Measured()
 
 #: The reference columns of a tick without a guidance reference (same keys and order as with one).
 _NO_REFERENCE_ROW: dict[str, float | int | str] = dict.fromkeys(

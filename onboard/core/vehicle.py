@@ -14,7 +14,8 @@ from onboard.core.params import BusLimits
 
 class Core(Vehicle, Protocol):
     """The vehicle's state beside what a maneuver sees (:class:`~onboard.core.executive.maneuver.Vehicle`):
-    the executive, the bus and actuator conditions, the autostart and the loop's lateness."""
+    the executive, the bus and actuator conditions, the autostart, the loop's lateness and the faults named
+    on the mission (:mod:`onboard.core.safety.diagnosis`)."""
 
     now_s: float
     bus_limits: BusLimits | None
@@ -25,6 +26,7 @@ class Core(Vehicle, Protocol):
     bus_lost: str
     bus_abort: MissionStatus | None
     loop_late_s: float
+    faults_named: str
 
     @property
     def actuators_live(self) -> bool: ...

@@ -41,6 +41,7 @@ from onboard.core import commands as core
 from onboard.core.commands import Verdict
 from onboard.core.mission.model import Obstacle
 from onboard.core.mission.state import MissionState
+from onboard.core.safety.diagnosis import FaultFlag
 from onboard.protocol.conventions import body_to_ned
 
 VERSION = (0, 1, 0)
@@ -112,6 +113,30 @@ class _Stream:
     default_s: float
     next_s: float = 0.0
     links: dict[Link, _Rate] = field(default_factory=dict)  # the links that set an interval of their own
+
+
+#: The SYS_STATUS bit of each sensor (or actuator) a fault detector judges, and the fault that makes it
+#: unhealthy: the compass 3D_MAG, the depth sensor ABSOLUTE_PRESSURE (it is one), the position fixes GPS (the
+#: position-fix sensor's bit; LBL here), the DVL VISION_POSITION (ArduSub feeds its DVL to the EKF the same
+#: way, as visual odometry; SYS_STATUS has no DVL bit), the propeller PROPULSION. A stuck fin is
+#: MOTOR_OUTPUTS (with the bus).
+FAULT_BITS: tuple[tuple[int, FaultFlag], ...] = (
+    (mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG, FaultFlag.COMPASS_BIAS),
+    (mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE, FaultFlag.DEPTH_STUCK),
+    (mavlink.MAV_SYS_STATUS_SENSOR_GPS, FaultFlag.FIX_OUTAGE),
+    (mavlink.MAV_SYS_STATUS_SENSOR_VISION_POSITION, FaultFlag.DVL_DROPOUT),
+    (mavlink.MAV_SYS_STATUS_SENSOR_PROPULSION, FaultFlag.THRUST_LOSS),
+)
+
+
+def fault_bits(fault_flags: int) -> tuple[int, int]:
+    """(present = enabled, unhealthy) SYS_STATUS bits of the judged sensors for the faults named now."""
+    present = unhealthy = 0
+    for bit, flag in FAULT_BITS:
+        present |= bit
+        if fault_flags & flag:
+            unhealthy |= bit
+    return present, unhealthy
 
 
 def _advance(next_s: float, period_s: float, now: float) -> float:
@@ -195,8 +220,8 @@ class Telemetry:
         fence circles) is present and enabled while there are circles, and healthy unless the vehicle's
         position is inside one (MAVLink's health bit for it means "not breached"). A bit not present is
         reported healthy, as ArduPilot does, so no station reads it as a breach (MAVProxy said "fence
-        breach" on connect when every health bit was 0). The sensors stay unreported: SYS_STATUS has no bit
-        for a DVL, and the vehicle's reason for not being ready is in its heartbeat and STATUSTEXT."""
+        breach" on connect when every health bit was 0). The sensors the fault detectors judge are added
+        where the message is built (:func:`fault_bits`)."""
         fence = mavlink.MAV_SYS_STATUS_GEOFENCE
         circles = self._fence_circles()
         if not circles:
@@ -368,10 +393,15 @@ class Telemetry:
                 bit = mavlink.MAV_SYS_STATUS_LOGGING
                 present, enabled = present | bit, enabled | bit
                 health = health | bit if not self._storage_problem() else health & ~bit
-            # MOTOR_OUTPUTS: the CAN bus to the actuator node (healthy unless lost; the STATUSTEXT says why)
+            # MOTOR_OUTPUTS: the CAN bus to the actuator node and the fins following their commands (healthy
+            # unless the bus is lost or a fin is stuck; the STATUSTEXT says why)
             motors = mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
             present, enabled = present | motors, enabled | motors
-            health = health & ~motors if s.bus_lost else health | motors
+            stuck = s.fault_flags & FaultFlag.FIN_STUCK
+            health = health & ~motors if s.bus_lost or stuck else health | motors
+            # the sensors and the propeller the fault detectors judge (onboard.core.safety.diagnosis)
+            bits, unhealthy = fault_bits(s.fault_flags)
+            present, enabled, health = present | bits, enabled | bits, (health | bits) & ~unhealthy
             m = mavlink.MAVLink_sys_status_message(
                 present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
                 _i(s.overruns, 0, 65535), 0, 0, 0,

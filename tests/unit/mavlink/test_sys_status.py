@@ -29,3 +29,19 @@ def test_a_fence_is_present_enabled_and_healthy_until_the_vehicle_is_inside_a_ci
     assert _bits(circle, 0.0, 0.0) == (FENCE, FENCE, FENCE)
     assert _bits(circle, 9.0, 0.5) == (FENCE, FENCE, 0)  # breached
     assert _bits(circle, float("nan"), float("nan")) == (FENCE, FENCE, FENCE)  # position unknown
+
+
+def test_the_judged_sensors_are_present_and_a_named_fault_makes_its_bit_unhealthy() -> None:
+    """Issue 24 item 5: each fault the vehicle names has its SYS_STATUS health bit (compass 3D_MAG, depth
+    ABSOLUTE_PRESSURE, fixes GPS, DVL VISION_POSITION, propeller PROPULSION)."""
+    from onboard.adapters.mavlink.telemetry import fault_bits
+    from onboard.core.safety.diagnosis import FaultFlag
+
+    present, unhealthy = fault_bits(0)
+    mag = mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG
+    assert present & mag and present & mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE and unhealthy == 0
+    assert fault_bits(FaultFlag.COMPASS_BIAS)[1] == mag
+    assert fault_bits(FaultFlag.DEPTH_STUCK | FaultFlag.FIX_OUTAGE)[1] == (
+        mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE | mavlink.MAV_SYS_STATUS_SENSOR_GPS
+    )
+    assert fault_bits(FaultFlag.THRUST_LOSS)[1] == mavlink.MAV_SYS_STATUS_SENSOR_PROPULSION
