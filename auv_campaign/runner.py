@@ -60,7 +60,7 @@ from onboard.core.mission.validate import check_mission
 from onboard.core.params import BusLimits
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
-from onboard.core.planner.planner import plan
+from onboard.core.plans import last_goal_run_in_m, plan_to_goal
 from onboard.protocol.bus import open_bus
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
@@ -150,20 +150,26 @@ def mission_of(spec: RunSpec) -> Mission:
 
 def nominal_legs(spec: RunSpec, cfg: OnboardConfig) -> list[Path]:
     """The onboard planner's paths from the spec's start pose through every goal in order (leg i starts at
-    goal i-1's pose), with the run's configuration. Raises PlannerError when a leg cannot be planned."""
+    goal i-1's pose), with the run's configuration (the last goal along the run-in's straight, as the
+    vehicle plans it). Raises PlannerError when a leg cannot be planned."""
     mis = spec.mission
     x, y, depth, yaw_deg = mis.start
     pose = (x, y, math.radians(yaw_deg))
     legs: list[Path] = []
     obstacles = tuple(Obstacle(ox, oy, r) for ox, oy, r in mis.obstacles)
-    for gx, gy, gdepth, gyaw in mis.goals:
-        path = plan(
+    m = cfg.mission
+    last_run_in_m = last_goal_run_in_m(
+        cfg.planner.goal_run_in_m, cfg.guidance.speed_mps, m.arrival_speed_mps, m.run_in_decel_mps2
+    )
+    for i, (gx, gy, gdepth, gyaw) in enumerate(mis.goals):
+        path = plan_to_goal(
             pose,
             (gx, gy, None if gyaw is None else math.radians(gyaw)),
             cfg.planner,
             obstacles,
             start_depth_m=depth,
             goal_depth_m=gdepth,
+            run_in_m=last_run_in_m if i == len(mis.goals) - 1 else 0.0,
         )
         legs.append(path)
         end = path.sample(path.length_m)

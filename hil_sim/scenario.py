@@ -155,6 +155,7 @@ def planned_path(sc: Scenario, config: str, step_m: float = 0.05) -> dict[str, A
         f"--start={fmt(str(v) for v in sc.start)}",
         f"--goal={fmt(str(v) for v in sc.goal)}",
         f"--depth={DEPTH_M},{DEPTH_M}",
+        "--last-goal",  # the scenario's one goal is its last: the path the vehicle plans to it
         "--json",
         "--sample-step",
         str(step_m),

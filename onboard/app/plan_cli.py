@@ -2,12 +2,15 @@
 
     auv-onboard plan --start X,Y,YAW_DEG --goal X,Y[,YAW_DEG] --radius R [--obstacle X,Y,R ...]
                      [--weights WD,WPSI,WDR] [--margin M] [--csc-only] [--depth START,GOAL]
-                     [--config FILE] [--sample-step M] [--json] [--plot FILE.png]
+                     [--config FILE [--last-goal]] [--sample-step M] [--json] [--plot FILE.png]
 
 ``--goal X,Y`` (no yaw) leaves the arrival heading free. ``--config`` reads the ``[planner]`` table of the
-onboard TOML file (the one the vehicle flies with); flags given on the command line override it. ``--radius``
-is required unless the config file is given. Negative numbers work in both spellings (``--start -15,5,0``
-and ``--start=-15,5,0``). Bad input: exit code 2 and one line on stderr.
+onboard TOML file (the one the vehicle flies with); flags given on the command line override it. With
+``--last-goal`` the goal is planned as the vehicle plans its mission's last goal: along a straight as long as
+the run-in's deceleration (the file's ``[mission]`` and ``[guidance]`` tables,
+``onboard.core.plans.last_goal_run_in_m``) where that fits. ``--radius`` is required unless the config
+file is given. Negative numbers work in both spellings (``--start -15,5,0`` and ``--start=-15,5,0``). Bad
+input: exit code 2 and one line on stderr.
 
 ``--json`` prints one object: ``length_m``, ``word``, ``virtual_goals`` ([[x, y], ...]), ``segments``,
 ``cost``, ``cost_terms``, ``start_depth_m``, ``end_depth_m``, and with ``--sample-step`` the polyline
@@ -29,7 +32,8 @@ from onboard.core.planner.config import PlannerConfig
 from onboard.core.planner.cost import cost_terms
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import ArcSegment, Path, Segment
-from onboard.core.planner.planner import GoalPose, Pose, candidates, inflate, plan
+from onboard.core.planner.planner import GoalPose, Pose, candidates, inflate
+from onboard.core.plans import last_goal_run_in_m, plan_to_goal
 
 PROG = "auv-onboard plan"
 _VALUE_OPTIONS = ("--start", "--goal", "--obstacle", "--weights", "--depth", "--radius", "--margin")
@@ -63,6 +67,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--config", metavar="FILE", help="onboard TOML file; its [planner] table sets the defaults"
     )
+    p.add_argument(
+        "--last-goal",
+        action="store_true",
+        help="plan the goal as the mission's last: along the run-in's straight (with --config)",
+    )
     p.add_argument("--sample-step", type=float, metavar="M", help="also output samples every M metres")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="draw circles, obstacles, candidates and the path")
@@ -80,6 +89,24 @@ def _numbers(text: str, what: str, counts: tuple[int, ...]) -> list[float]:
     if not all(math.isfinite(v) for v in vals):
         raise _UsageError(f"{what}: numbers must be finite, got {text!r}")
     return vals
+
+
+def _run_in_m(args: argparse.Namespace) -> float:
+    """The last goal's run-in (m) of the ``--config`` file with ``--last-goal`` (0: the planner's own)."""
+    if args.config is None or not args.last_goal:
+        return 0.0
+    from onboard.core.config import CoreConfig  # the tables the vehicle reads, checked as it does
+
+    data = load_toml(args.config)
+    tables = {k: v for k, v in data.items() if k in ("planner", "guidance", "mission")}
+    try:
+        core = from_table(CoreConfig, tables, args.config)
+    except ConfigError as exc:
+        raise _UsageError(str(exc)) from None
+    m = core.mission
+    return last_goal_run_in_m(
+        core.planner.goal_run_in_m, core.guidance.speed_mps, m.arrival_speed_mps, m.run_in_decel_mps2
+    )
 
 
 def _config(args: argparse.Namespace) -> PlannerConfig:
@@ -187,7 +214,8 @@ def _run(argv: list[str]) -> int:
     if args.sample_step is not None and not (math.isfinite(args.sample_step) and args.sample_step > 0.0):
         raise _UsageError(f"--sample-step must be a positive number of metres, got {args.sample_step!r}")
     config = _config(args)
-    path = plan(start, goal, config, obs3, start_depth_m=d0, goal_depth_m=d1)
+    run_in_m = _run_in_m(args)
+    path = plan_to_goal(start, goal, config, obs3, start_depth_m=d0, goal_depth_m=d1, run_in_m=run_in_m)
     if args.plot is not None:
         from onboard.app.plan_plot import plot_plan
 

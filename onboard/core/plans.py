@@ -13,7 +13,7 @@ from typing import Any
 
 from onboard.core.mission.model import Goal
 from onboard.core.planner.errors import PlannerError
-from onboard.core.planner.path import ArcSegment, Path
+from onboard.core.planner.path import ArcSegment, Path, StraightSegment
 from onboard.core.planner.planner import inflate, plan
 from onboard.protocol.conventions import wrap_pi
 
@@ -50,6 +50,49 @@ class PlanRequest:
     replan: bool = False  # a path is flown and stays if this one fails (planned again for the current)
     planned_current_mps: float = 0.0  # the current the flown path was planned for (m/s), when replan
     cross_track_bound_m: float = 0.0  # the largest cross-track measured on the mission so far (m)
+    goal_run_in_m: float = 0.0  # the goal's straight run-in where longer than the planner's (m): the last's
+
+
+def last_goal_run_in_m(
+    goal_run_in_m: float, speed_mps: float, arrival_speed_mps: float, run_in_decel_mps2: float
+) -> float:
+    """The straight (m) the mission's last goal is approached along: the planner's ``goal_run_in_m``, or
+    longer, the run-in's deceleration from the path speed ``speed_mps`` to ``arrival_speed_mps`` at
+    ``run_in_decel_mps2`` ((v^2 - a^2) / 2 d: 18.75 m for 1 -> 0.25 m/s at 0.025 m/s^2), so the run-in slows
+    on the straight, not in the last turn. Slowing in a turn, the fins lost their force and a following
+    current the estimate had not yet seen (0.03 of 0.5 m/s) carried the vehicle through it, 12 deg off the
+    goal's course (current campaign, 0.5 m/s towards 0 deg), and out of a turn onto the goal the vehicle
+    arrived faster than the stop takes up in its 3 m (the run-in's reverse propeller works on straights
+    only). ``goal_run_in_m`` without a run-in (``arrival_speed_mps`` 0)."""
+    if arrival_speed_mps <= 0.0 or run_in_decel_mps2 <= 0.0:
+        return goal_run_in_m
+    slowing_m = max(speed_mps**2 - arrival_speed_mps**2, 0.0) / (2.0 * run_in_decel_mps2)
+    return max(goal_run_in_m, slowing_m)
+
+
+def plan_to_goal(
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float | None],
+    config: Any,
+    obstacles: Any = (),
+    *,
+    start_depth_m: float = 0.0,
+    goal_depth_m: float = 0.0,
+    run_in_m: float = 0.0,
+) -> Path:
+    """The planner's path to ``goal`` (:func:`~onboard.core.planner.planner.plan`), along a straight run-in
+    of ``run_in_m`` where that is longer than the planner's ``goal_run_in_m`` and fits (it is then the
+    path's last segment: the last goal's, :func:`last_goal_run_in_m`), else the planner's own (its short
+    run-in, or direct). Raises PlannerError as ``plan``."""
+    if run_in_m > config.goal_run_in_m and goal[2] is not None:
+        path = plan(
+            start, goal, replace(config, goal_run_in_m=run_in_m), obstacles,
+            start_depth_m=start_depth_m, goal_depth_m=goal_depth_m,
+        )  # fmt: skip
+        last = path.segments[-1] if path.segments else None
+        if isinstance(last, StraightSegment) and last.length_m >= run_in_m - 1e-6:
+            return path
+    return plan(start, goal, config, obstacles, start_depth_m=start_depth_m, goal_depth_m=goal_depth_m)
 
 
 #: The widest a current makes the turns: the current counted is at most this fraction of the path speed.
@@ -82,13 +125,14 @@ def compute_plan(request: PlanRequest) -> Path:
         nominal = request.planner
 
         def to_goal(config: Any) -> Path:
-            return plan(
+            return plan_to_goal(
                 request.start,
                 (g.x_m, g.y_m, g.yaw_rad),
                 config,
                 request.obstacles,
                 start_depth_m=request.start_depth_m,
                 goal_depth_m=g.depth_m,
+                run_in_m=request.goal_run_in_m,
             )
 
         # The margin grown for the current and the cross-track measured (issue 23 item 4): first with it,

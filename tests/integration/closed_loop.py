@@ -25,7 +25,7 @@ from onboard.app.loop import ControlLoop
 from onboard.app.runtime import LISTEN
 from onboard.core.autopilot import Autopilot
 from onboard.core.mission.model import Goal, Mission
-from onboard.core.planner.planner import plan
+from onboard.core.plans import last_goal_run_in_m, plan_to_goal
 from onboard.protocol.codec import Codec
 from onboard.protocol.port import BusPort
 
@@ -33,15 +33,20 @@ _ids = itertools.count()
 
 
 def planned_samples(name: str, step_m: float = 0.05) -> tuple[list[list[float]], float]:
-    """The planned polyline [[x, y, yaw_deg], ...] of a scenario with the default onboard config."""
+    """The planned polyline [[x, y, yaw_deg], ...] of a scenario with the default onboard config (its goal
+    the mission's last: along the run-in's straight)."""
     sc = SCENARIOS[name]
     cfg = load_config()
-    path = plan(
+    mis = cfg.mission
+    path = plan_to_goal(
         (sc.start[0], sc.start[1], math.radians(sc.start[2])),
         (sc.goal[0], sc.goal[1], math.radians(sc.goal[2])),
         cfg.planner,
         start_depth_m=DEPTH_M,
         goal_depth_m=DEPTH_M,
+        run_in_m=last_goal_run_in_m(
+            cfg.planner.goal_run_in_m, cfg.guidance.speed_mps, mis.arrival_speed_mps, mis.run_in_decel_mps2
+        ),
     )
     n = max(1, math.ceil(path.length_m / step_m))
     samples = []

@@ -27,7 +27,7 @@ from onboard.core.nav.current import CURRENT_BELIEVED_STD_MPS, CURRENT_NOISE_MPS
 from onboard.core.nav.types import NavState
 from onboard.core.planner.errors import PlannerError
 from onboard.core.planner.path import Path
-from onboard.core.plans import PlanRequest
+from onboard.core.plans import PlanRequest, last_goal_run_in_m
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +102,7 @@ class Executive:
             dt_s,
             arrival_speed_mps=arrival_speed_mps(v.config, nav) if last else 0.0,
             run_in_decel_mps2=mission.run_in_decel_mps2,
+            run_in_depth_slope=v.config.planner.max_depth_slope,
             arrival_radius_m=radius_m,
         )
         if self.path_kind == "goal" and abs(reference.cross_track_m) > self.cross_track_bound_m:
@@ -206,6 +207,22 @@ class Executive:
             replan=replan,
             planned_current_mps=self.path_current_mps,
             cross_track_bound_m=self.cross_track_bound_m,
+            goal_run_in_m=self.goal_run_in_m(v, index) if kind == "goal" else 0.0,
+        )
+
+    @staticmethod
+    def goal_run_in_m(v: Vehicle, index: int) -> float:
+        """The straight (m) goal ``index`` is approached along: the last goal's long enough for the run-in
+        to slow on it (:func:`~onboard.core.plans.last_goal_run_in_m`), the others' the planner's."""
+        cfg = v.config
+        if index != len(v.mission.goals) - 1:
+            return cfg.planner.goal_run_in_m
+        mission = cfg.mission
+        return last_goal_run_in_m(
+            cfg.planner.goal_run_in_m,
+            cfg.guidance.speed_mps,
+            mission.arrival_speed_mps,
+            mission.run_in_decel_mps2,
         )
 
     def take_plan_request(self) -> PlanRequest | None:

@@ -194,5 +194,5 @@ class Goto:
             return False
         goal = v.mission.goals[v.status.goal_index]
         radius_m = current_radius_m(planner.turning_radius_m, v.config.guidance.speed_mps, now_mps)
-        far_m = 2.0 * radius_m + planner.goal_run_in_m
+        far_m = 2.0 * radius_m + ex.goal_run_in_m(v, v.status.goal_index)
         return math.hypot(goal.x_m - nav.x_m, goal.y_m - nav.y_m) > far_m

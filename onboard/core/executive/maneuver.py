@@ -88,6 +88,8 @@ class Plans(Protocol):
 
     def current_mps(self, nav: NavState) -> float: ...
 
+    def goal_run_in_m(self, v: Vehicle, index: int) -> float: ...
+
 
 class Maneuver(Protocol):
     """One maneuver. ``kind`` names the plans it asks for and the path it flies (``goal``, ``loiter``,

@@ -10,11 +10,14 @@ import math
 import pytest
 
 from onboard.core import guidance
+from onboard.core.autopilot import Autopilot
 from onboard.core.commands import Hold, SetMode
-from onboard.core.mission.model import Goal
+from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.state import MissionState
 from onboard.core.nav.types import nav_state_at
+from onboard.core.planner.path import StraightSegment
 from onboard.core.planner.planner import plan
+from onboard.core.plans import PlanRequest, compute_plan, last_goal_run_in_m
 from onboard.protocol import messages as m
 from tests.unit.autopilot.test_autopilot import load_core, started, tick
 
@@ -88,3 +91,112 @@ def test_the_run_in_to_the_last_goal_slows_the_speed_reference_to_the_arrival_sp
     # and without the run-in (an intermediate goal) it is the path speed, as before
     ref, _, _ = guidance.step(nav, path, state, cfg.guidance, 0.05)
     assert ref.speed_mps == pytest.approx(cfg.guidance.speed_mps)
+
+
+def test_the_last_goal_is_approached_along_a_straight_long_enough_for_the_run_in() -> None:
+    # GIVEN the paper's turn onto its goal (arriving heading 270 deg out of a turn), packaged configuration
+    goals = (Goal(10.0, -2.0, 1.0, math.radians(270.0)),)
+    ap = Autopilot(load_core())
+    assert ap.replace_mission(Mission(goals)).accepted
+    ap.request_autostart()
+    tick(ap, 0.0, x=-15.0, y=5.0)
+    ap.before_step()
+    # WHEN the vehicle plans its leg to the last goal (at START)
+    req = ap.take_plan_request()
+    assert req is not None and req.kind == "goal"
+    path = compute_plan(req)
+    # THEN the path ends in a straight as long as the run-in's deceleration from the path speed to the
+    # arrival speed ((1 - 0.25^2) / (2 x 0.025) = 18.75 m), so the run-in slows on it, not in the turn
+    mission, speed = ap.config.mission, ap.config.guidance.speed_mps
+    slowing_m = (speed**2 - mission.arrival_speed_mps**2) / (2.0 * mission.run_in_decel_mps2)
+    last = path.segments[-1]
+    assert isinstance(last, StraightSegment) and last.length_m >= slowing_m - 1e-6, path.segments
+    # and the arc before it is flown at the path speed: the run-in's speed limit does not bind there
+    s_arc = path.length_m - last.length_m - 0.5
+    at = path.sample(s_arc)
+    nav = nav_state_at(x_m=at.x_m, y_m=at.y_m, depth_m=1.0, yaw_rad=at.yaw_rad, u_mps=speed)
+    state = guidance.GuidanceState(ref_speed_mps=speed, s_ref_m=s_arc, s_proj_m=s_arc)
+    ref, _, dbg = guidance.step(
+        nav, path, state, ap.config.guidance, 0.05,
+        arrival_speed_mps=mission.arrival_speed_mps, run_in_decel_mps2=mission.run_in_decel_mps2,
+    )  # fmt: skip
+    assert not dbg.run_in and ref.speed_mps == pytest.approx(speed)
+
+
+def test_an_intermediate_goal_keeps_the_planners_run_in() -> None:
+    # GIVEN two goals THEN only the last one's straight is the run-in's length
+    goals = (Goal(20.0, 0.0, 1.0, 0.0), Goal(40.0, 0.0, 1.0, 0.0))
+    ap = started(goals)
+    assert ap.executive.goal_run_in_m(ap, 0) == ap.config.planner.goal_run_in_m
+    assert ap.executive.goal_run_in_m(ap, 1) == pytest.approx(18.75)
+
+
+def test_without_a_run_in_the_last_goal_keeps_the_planners_run_in() -> None:
+    assert last_goal_run_in_m(5.0, 1.0, 0.0, 0.025) == 5.0
+    assert last_goal_run_in_m(5.0, 1.0, 0.25, 0.025) == pytest.approx(18.75)
+    assert last_goal_run_in_m(30.0, 1.0, 0.25, 0.025) == 30.0
+
+
+def test_a_long_run_in_that_does_not_fit_falls_back_to_the_planners_own() -> None:
+    # GIVEN a goal whose 18.75 m run-in would start inside an obstacle
+    cfg = load_core()
+    goal = Goal(20.0, 0.0, 1.0, 0.0)
+    req = PlanRequest(
+        1, "goal", 0, (0.0, 10.0, 0.0), 1.0, goal, (Obstacle(8.0, 0.0, 2.0),), cfg.planner, 6.0, 0.0, 2.0,
+        goal_run_in_m=18.75,
+    )  # fmt: skip
+    # WHEN planned THEN the path is the planner's own: its 5 m run-in (no error, no path into the obstacle)
+    path = compute_plan(req)
+    last = path.segments[-1]
+    assert isinstance(last, StraightSegment)
+    assert last.length_m == pytest.approx(cfg.planner.goal_run_in_m)
+
+
+def test_on_the_run_in_the_depth_change_is_done_before_the_vehicle_is_slow() -> None:
+    # GIVEN the packaged configuration on a 50 m straight diving 1 -> 10 m (depth.yaml's dive10)
+    cfg = load_core()
+    path = plan((0.0, 0.0, 0.0), (50.0, 0.0, 0.0), cfg.planner, start_depth_m=1.0, goal_depth_m=10.0)
+    mission = cfg.mission
+    slope = cfg.planner.max_depth_slope
+
+    def depth_ref_at(s_m: float) -> tuple[float, float]:
+        nav = nav_state_at(x_m=s_m, y_m=0.0, depth_m=5.0, yaw_rad=0.0, u_mps=1.0)
+        state = guidance.GuidanceState(ref_speed_mps=1.0, s_ref_m=s_m, s_proj_m=s_m)
+        ref, _, _ = guidance.step(
+            nav, path, state, cfg.guidance, 0.05,
+            arrival_speed_mps=mission.arrival_speed_mps, run_in_decel_mps2=mission.run_in_decel_mps2,
+            run_in_depth_slope=slope,
+        )  # fmt: skip
+        return ref.depth_m, ref.speed_mps
+
+    # WHEN guidance steps on the run-in THEN the goal's depth is reached where the run-in's speed
+    # reference is still RUN_IN_DEPTH_SPEED_MPS, no steeper than the planner's limit (the stern planes'
+    # lift goes with the speed squared: flown on to the goal slowly, the dive ended 0.43 m short)
+    fast = guidance.guidance.RUN_IN_DEPTH_SPEED_MPS
+    slow_m = (fast**2 - mission.arrival_speed_mps**2) / (2.0 * mission.run_in_decel_mps2)
+    done_m = max(path.length_m - slow_m, 9.0 / slope)
+    assert done_m < path.length_m - 5.0
+    assert depth_ref_at(done_m)[0] == pytest.approx(10.0)
+    assert depth_ref_at(done_m / 2.0)[0] == pytest.approx(1.0 + 4.5)
+    depth, speed = depth_ref_at(done_m - 0.5)
+    assert depth < 10.0 and speed >= fast
+    # and the last metres are level at the goal's depth
+    assert depth_ref_at(45.0)[0] == pytest.approx(10.0)
+
+
+def test_a_new_path_that_loops_back_across_its_start_is_flown_from_its_start() -> None:
+    # GIVEN a goal 12 m straight ahead whose 18.75 m run-in begins behind the vehicle: the path loops back
+    # and its run-in passes through the vehicle's position (legs_3d.yaml's steep leg between two goals)
+    cfg = load_core()
+    req = PlanRequest(
+        1, "goal", 0, (0.0, 0.0, 0.0), 1.0, Goal(12.0, 0.0, 8.0, 0.0), (), cfg.planner, 6.0, 0.0, 2.0,
+        goal_run_in_m=18.75,
+    )  # fmt: skip
+    path = compute_plan(req)
+    assert path.length_m > 30.0
+    # WHEN guidance takes the new path (its memory fresh) with the vehicle at its start
+    nav = nav_state_at(x_m=0.0, y_m=0.01, depth_m=1.0, yaw_rad=0.0, u_mps=1.0)
+    ref, _, _ = guidance.step(nav, path, guidance.GuidanceState(), cfg.guidance, 0.05)
+    # THEN the vehicle is at the path's start, not on the run-in (before: projected onto the run-in, it flew
+    # straight to the goal, 10.5 m off the path and 5.8 m short of the goal's depth)
+    assert ref.along_track_m < 1.0

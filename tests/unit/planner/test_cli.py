@@ -165,3 +165,15 @@ def test_runs_as_module() -> None:
     )
     assert bad.returncode == 2
     assert len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_last_goal_plans_along_the_run_ins_straight(capsys: pytest.CaptureFixture[str]) -> None:
+    # GIVEN the packaged onboard.toml (5 m goal run-in; the run-in slows 1 -> 0.25 m/s at 0.025 m/s^2)
+    toml = str(FsPath(__file__).resolve().parents[3] / "onboard" / "config" / "onboard.toml")
+    argv = ["--start=-15,5,0", "--goal=10,-2,270", "--config", toml, "--json"]
+    # WHEN the paper's turn is planned as the mission's last goal THEN it ends in 18.75 m of straight (the
+    # run-in's deceleration: the path the vehicle flies), without the flag in the planner's 5 m
+    last = _json(capsys, [*argv, "--last-goal"])["segments"][-1]  # type: ignore[index]
+    assert last["kind"] == "S" and last["length_m"] == pytest.approx(18.75)  # type: ignore[index]
+    last = _json(capsys, argv)["segments"][-1]  # type: ignore[index]
+    assert last["kind"] == "S" and last["length_m"] == pytest.approx(5.0)  # type: ignore[index]
