@@ -13,8 +13,8 @@ from typing import Any
 
 from onboard.core.mission.model import Goal
 from onboard.core.planner.errors import PlannerError
-from onboard.core.planner.path import ArcSegment, Path, StraightSegment
-from onboard.core.planner.planner import inflate, plan
+from onboard.core.planner.path import ArcSegment, Path, StraightSegment, clearance_m, departure_m
+from onboard.core.planner.planner import circles, inflate, plan
 from onboard.protocol.conventions import wrap_pi
 
 #: A loiter path ends on its circle drawn this many times, one segment of one lap each (a projection on an
@@ -50,6 +50,7 @@ class PlanRequest:
     replan: bool = False  # a path is flown and stays if this one fails (planned again for the current)
     planned_current_mps: float = 0.0  # the current the flown path was planned for (m/s), when replan
     cross_track_bound_m: float = 0.0  # the largest cross-track measured on the mission so far (m)
+    held_path: Path | None = None  # when replan: the path flown (a re-plan departing far is not taken)
     goal_run_in_m: float = 0.0  # the goal's straight run-in where longer than the planner's (m): the last's
 
 
@@ -119,7 +120,29 @@ def _said_margin(path: Path, nominal: Any, grown_m: float) -> Path:
 
 
 def compute_plan(request: PlanRequest) -> Path:
-    """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it."""
+    """The path a :class:`PlanRequest` asks for (pure; raises PlannerError). The loop's worker runs it.
+
+    A re-plan for the current (``replan``) that departs farther than ``[planner] replan_hold_m`` from the
+    path flown (``held_path``) is refused ("departs") where the path flown keeps the margin grown for this
+    current from every obstacle: the executive keeps the path flown, as for any re-plan that fails (issue
+    23 item 4: hold the path). Where it does not, the re-plan is taken: clearance before path-keeping."""
+    path = _compute_plan(request)
+    held, cfg = request.held_path, request.planner
+    if request.replan and held is not None and cfg.replan_hold_m > 0.0:
+        away_m = departure_m(path, held)
+        # the clearance the path flown keeps beyond the nominal margin, against the margin grown
+        kept_m = clearance_m(held, circles(request.obstacles)) - cfg.obstacle_margin_m
+        grown_m = cfg.grown_margin_m(request.current_mps, request.cross_track_bound_m)
+        if away_m > cfg.replan_hold_m and kept_m >= grown_m:
+            raise PlannerError(
+                "departs",
+                f"the path planned for {request.current_mps:.2f} m/s departs {away_m:.1f} m from the path "
+                f"flown (more than {cfg.replan_hold_m:g} m): the path flown holds",
+            )
+    return path
+
+
+def _compute_plan(request: PlanRequest) -> Path:
     g = request.goal
     if request.kind == "goal":
         nominal = request.planner

@@ -207,6 +207,7 @@ class Executive:
             replan=replan,
             planned_current_mps=self.path_current_mps,
             cross_track_bound_m=self.cross_track_bound_m,
+            held_path=self.path if replan else None,
             goal_run_in_m=self.goal_run_in_m(v, index) if kind == "goal" else 0.0,
         )
 

@@ -101,6 +101,10 @@ class PlannerConfig:
             where that finds no way, the nominal margin (with its fallbacks) and the path's note says so.
             0 = the fixed margin.
         current_margin_max_m: the most the margin grows for the current and the measured cross-track (m).
+        replan_hold_m: a re-plan for the current (wider turns) is taken only where no point of it lies
+            farther than this from the path flown (m; 0 = always taken): the path holds, the turns it has
+            are flown in the current (a wider word that loops elsewhere is not taken, 9 m off the first
+            plan in clutter_current r7).
         csc_only: True = the paper's candidate set (the four direction-consistent tangent words LSL, RSR,
             LSR, RSL); False = also the CCC words (RLR, LRL), the complete Dubins set.
     """
@@ -143,6 +147,10 @@ class PlannerConfig:
     current_margin_max_m: float = param(
         3.0, unit="m", min=0.0, operator=(0.0, 50.0), mavlink="PLN_CUR_MRG_MAX",
         desc="most the obstacle margin grows for the current and the measured cross-track",
+    )  # fmt: skip
+    replan_hold_m: float = param(
+        3.0, unit="m", min=0.0, operator=(0.0, 50.0), mavlink="PLN_REPLAN_HOLD",
+        desc="a re-plan for the current departing farther from the path flown is not taken (0 = always)",
     )  # fmt: skip
     min_turning_radius_m: float = 0.0
     min_obstacle_margin_m: float | None = None

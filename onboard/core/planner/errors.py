@@ -14,6 +14,7 @@ REASONS: dict[str, str] = {
     "unreachable": "no collision-free path exists in the tangent graph",
     "depth_slope": "the path is too short for the depth change at the maximum climb/dive slope",
     "config": "a planner configuration value is out of range",
+    "departs": "a re-plan departs farther from the path flown than [planner] replan_hold_m",
 }
 
 

@@ -14,7 +14,11 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
 
 from onboard.protocol.conventions import wrap_pi
 
@@ -191,3 +195,33 @@ def sample_evenly(path: Path, step_m: float = POINT_STEP_M) -> list[PathSample]:
     length = path.length_m
     n = math.ceil(length / step_m - 1e-9) if length > 0.0 else 0
     return [path.sample(length * i / n if n else 0.0) for i in range(n + 1)]
+
+
+#: The most points :func:`departure_m` samples a path at (its distance table is their square).
+DEPARTURE_SAMPLES = 1000
+
+
+def _points(p: Path, step_m: float) -> npt.NDArray[np.float64]:
+    """``p`` sampled every ``step_m`` (m), at most :data:`DEPARTURE_SAMPLES` points: (n, 2) x, y."""
+    n = min(max(math.ceil(p.length_m / step_m), 1), DEPARTURE_SAMPLES)
+    samples = [p.sample(p.length_m * k / n) for k in range(n + 1)]
+    return np.array([(q.x_m, q.y_m) for q in samples])
+
+
+def clearance_m(path: Path, circles: Sequence[tuple[float, float, float]], step_m: float = 0.25) -> float:
+    """The closest (m) ``path`` comes to the edge of any circle ``(x_m, y_m, radius_m)`` (inf: none)."""
+    if not circles:
+        return math.inf
+    pts, c = _points(path, step_m), np.array(circles, dtype=float)
+    d = np.hypot(pts[:, None, 0] - c[None, :, 0], pts[:, None, 1] - c[None, :, 1]) - c[None, :, 2]
+    return float(d.min())
+
+
+def departure_m(path: Path, held: Path, step_m: float = 0.25) -> float:
+    """The farthest (m) any point of ``path`` lies from ``held``, both sampled every ``step_m`` (m): how far
+    a new path departs from the path flown (a re-plan for the current that departs far is not taken:
+    :func:`onboard.core.plans.compute_plan`). At most :data:`DEPARTURE_SAMPLES` points a path (a longer
+    path is sampled more coarsely)."""
+    new, old = _points(path, step_m), _points(held, step_m)
+    d = np.hypot(new[:, None, 0] - old[None, :, 0], new[:, None, 1] - old[None, :, 1])
+    return float(d.min(axis=1).max())

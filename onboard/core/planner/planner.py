@@ -87,6 +87,11 @@ def _as_circle(o: ObstacleInput) -> tuple[float, float, float]:
     return (float(o.x_m), float(o.y_m), float(o.radius_m))
 
 
+def circles(obstacles: Iterable[ObstacleInput]) -> tuple[tuple[float, float, float], ...]:
+    """The obstacles as ``(x_m, y_m, radius_m)`` circles, not inflated (nor validated: :func:`inflate`)."""
+    return tuple(_as_circle(o) for o in obstacles)
+
+
 def inflate(
     obstacles: Iterable[ObstacleInput], config: PlannerConfig
 ) -> tuple[tuple[float, float, float], ...]:

@@ -9,6 +9,8 @@ import pytest
 
 from onboard.core.mission.model import Goal
 from onboard.core.planner.config import PlannerConfig
+from onboard.core.planner.path import Path
+from onboard.core.planner.planner import plan
 from onboard.core.plans import PlanRequest, compute_plan
 
 # A straight north from (0, 0) to (40, 0); an obstacle of 1 m radius 2.5 m east of its middle: the nominal
@@ -107,3 +109,57 @@ def test_a_re_plan_for_the_current_starts_on_the_path_flown_not_where_the_drift_
     assert nav is not None and math.hypot(nav.x_m - on.x_m, nav.y_m - on.y_m) > 0.3
     # and the measured cross-track travels with it (the margin grows to it)
     assert req.cross_track_bound_m > 0.3
+
+
+def _straight(x_m: float, y_m: float, yaw_rad: float, goal: Goal) -> Path:
+
+    return plan((x_m, y_m, yaw_rad), (goal.x_m, goal.y_m, goal.yaw_rad), PLANNER)
+
+
+def test_how_far_a_path_departs_from_another() -> None:
+    from onboard.core.planner.path import departure_m
+
+    a = _straight(0.0, 0.0, 0.0, Goal(40.0, 0.0, 1.0, 0.0))
+    b = _straight(0.0, 2.0, 0.0, Goal(40.0, 2.0, 1.0, 0.0))
+    assert departure_m(a, a) == pytest.approx(0.0)
+    assert departure_m(b, a) == pytest.approx(2.0, abs=0.01)
+
+
+def test_a_re_plan_for_the_current_that_departs_far_from_the_path_flown_is_not_taken() -> None:
+    from onboard.core.planner.errors import PlannerError
+
+    # GIVEN a path flown north along y = 0 and a re-plan (1 m/s of current) whose path lies 2 m east of it
+    held = _straight(0.0, 0.0, 0.0, Goal(40.0, 0.0, 1.0, 0.0))
+    goal = Goal(40.0, 2.0, 1.0, 0.0)
+
+    def replan(hold_m: float) -> Path:
+        cfg = PlannerConfig(turning_radius_m=1.0, replan_hold_m=hold_m)
+        req = PlanRequest(
+            2, "goal", 0, (0.0, 2.0, 0.0), 1.0, goal, (), cfg, 2.0, 0.0, 2.0, 1.0, 1.0,
+            replan=True, held_path=held,
+        )  # fmt: skip
+        return compute_plan(req)
+
+    # THEN it is refused with the figure where the hold is 1.5 m (the executive keeps the path flown) ...
+    with pytest.raises(PlannerError, match=r"departs 2\.0 m from the path flown \(more than 1\.5 m\)"):
+        replan(1.5)
+    # ... and taken within 3 m, or with the hold off
+    assert replan(3.0).length_m == pytest.approx(40.0)
+    assert replan(0.0).length_m == pytest.approx(40.0)
+
+
+def test_a_departing_re_plan_is_taken_where_the_path_flown_lacks_the_margin_grown_for_the_current() -> None:
+    # GIVEN the path flown north along y = 0 passes 1.5 m from an obstacle's edge (the nominal 1 m kept) and
+    # a re-plan in 0.5 m/s (2 m more margin) that departs from it by more than the hold
+    held = _straight(0.0, 0.0, 0.0, Goal(40.0, 0.0, 1.0, 0.0))
+    cfg = PlannerConfig(turning_radius_m=1.0, replan_hold_m=0.5)
+    req = PlanRequest(
+        2, "goal", 0, (0.0, 0.0, 0.0), 1.0, GOAL, FENCE, cfg, 2.0, 0.0, 2.0, 0.5, 1.0,
+        replan=True, held_path=held,
+    )  # fmt: skip
+    # THEN the re-plan is taken: clearance before path-keeping (it passes the obstacle 1 + 2 m wide)
+    path = compute_plan(req)
+    ox, oy, r = FENCE[0]
+    n = int(path.length_m / 0.05)
+    pts = (path.sample(k * 0.05) for k in range(n + 1))
+    assert min(math.hypot(p.x_m - ox, p.y_m - oy) for p in pts) - r >= 3.0 - 1e-6
