@@ -28,9 +28,10 @@ from dataclasses import dataclass
 from onboard.core.config import CoreConfig
 from onboard.core.control.actuators import ActuatorCommand, ActuatorLimits, saturate
 from onboard.core.executive.maneuver import Leg, Plans, Progress, Vehicle
-from onboard.core.guidance.guidance import GuidanceReference
+from onboard.core.guidance.guidance import GuidanceReference, GuidanceState
 from onboard.core.nav.current import CURRENT_NOISE_MPS
 from onboard.core.nav.types import NavState
+from onboard.core.planner.path import Path, StraightSegment
 
 #: Below this speed over ground ahead (m/s) the vehicle has stopped: the DVL's noise is centimetres a second.
 STOPPED_MPS = 0.02
@@ -160,17 +161,76 @@ class Stop:
         )
 
 
+#: Once stopped, a vehicle carried this far (m, over ground) from where it stopped is drifting with the
+#: water: the ``surface`` end then holds position at the last goal. The current estimate cannot say so: in
+#: a 1.5 m/s head current along one heading it read 0.01 m/s (a slow vehicle, not a current), and the
+#: stopped vehicle was swept 8-13 m back within 20 s (head_current.yaml).
+HOLD_DRIFT_M = 1.0
+#: Carried astern over ground faster than this (m/s) while the stop brakes, the vehicle was stemming a head
+#: current (its reverse propeller tapers off before it could drive it astern): it holds position at once.
+HOLD_ASTERN_MPS = 0.05
+#: The hold's path: a straight of this length (m) against the drift, ending at the last goal.
+HOLD_PATH_M = 20.0
+
+
+def hold_path(x_m: float, y_m: float, depth_m: float, drift_north_m: float, drift_east_m: float) -> Path:
+    """The path a hold flies: :data:`HOLD_PATH_M` of straight heading against the drift (north, east: the
+    way the water carried the vehicle), ending at the goal (x_m, y_m) at ``depth_m``; guidance's reference
+    waits at its end (``reference_stops_at_end``) and the speed loop's integral holds the vehicle there."""
+    yaw = math.atan2(-drift_east_m, -drift_north_m)
+    x0, y0 = x_m - HOLD_PATH_M * math.cos(yaw), y_m - HOLD_PATH_M * math.sin(yaw)
+    return Path(
+        (StraightSegment(x0, y0, yaw, HOLD_PATH_M),),
+        start_depth_m=depth_m,
+        end_depth_m=depth_m,
+        word="S",
+        start_pose=(x0, y0, yaw),
+    )
+
+
 class Surface:
-    """Nothing to fly: the pipeline sends the stop's command (:class:`Stop`), then NEUTRAL (the actuators
-    are then not live, :func:`actuators_live`)."""
+    """The ``surface`` end: the pipeline sends the stop's command (:class:`Stop`), then NEUTRAL (the
+    actuators are then not live, :func:`actuators_live`). Stopped, a vehicle the water carries
+    :data:`HOLD_DRIFT_M` from where it stopped holds position at the last goal instead (heading against the
+    drift, no deeper than the goal or than it is then; the stop is begun again, so the actuators are live
+    and the pipeline flies the hold's leg) until the operator ends the mission (a new mission, STOP,
+    DISARM): drifting, it would leave the stopping zone the validator kept clear."""
 
     kind = "surface"
+
+    def __init__(self) -> None:
+        self.stopped_at: tuple[float, float] | None = None  # where the stop ended (x_m, y_m)
 
     def start(self, ex: Plans, v: Vehicle) -> None:
         ex.drop_path()
 
     def step(self, ex: Plans, v: Vehicle, nav: NavState, dt_s: float) -> Leg | None:
-        return None
+        if ex.path_kind != "hold":
+            if not v.mission.goals or not (math.isfinite(nav.x_m) and math.isfinite(nav.y_m)):
+                return None
+            astern = speed_ahead_mps(nav) < -HOLD_ASTERN_MPS
+            if ex.braking and not astern:
+                self.stopped_at = None
+                return None
+            if self.stopped_at is None:
+                self.stopped_at = (nav.x_m, nav.y_m)
+            dn, de = nav.x_m - self.stopped_at[0], nav.y_m - self.stopped_at[1]
+            if astern:  # the way the water carries it: astern over ground
+                vn, ve, _ = nav.velocity_ned_mps
+                dn, de = vn, ve
+            elif math.hypot(dn, de) < HOLD_DRIFT_M:
+                return None
+            goal = v.mission.goals[-1]
+            depth_m = min(goal.depth_m, nav.depth_m) if math.isfinite(nav.depth_m) else goal.depth_m
+            path = hold_path(goal.x_m, goal.y_m, depth_m, dn, de)
+            yaw = math.atan2(-de, -dn)
+            x0, y0, _ = path.start_pose
+            along = (nav.x_m - x0) * math.cos(yaw) + (nav.y_m - y0) * math.sin(yaw)
+            ex.path, ex.path_kind, ex.path_goal_index = path, "hold", len(v.mission.goals) - 1
+            # the reference waits at the goal from the start: the speed loop brings the vehicle back to it
+            ex.guidance_state = GuidanceState(s_ref_m=HOLD_PATH_M, s_proj_m=min(max(along, 0.0), HOLD_PATH_M))
+            ex.begin_stop(v)  # live again (the stop's command is not sent while a leg is flown)
+        return ex.follow(v, nav, dt_s)
 
     def plan_failed(self, ex: Plans, v: Vehicle, why: str, late: bool) -> None:
         return None
@@ -179,4 +239,6 @@ class Surface:
         return True
 
     def progress(self, ex: Plans, v: Vehicle) -> Progress:
+        if ex.path_kind == "hold":
+            return Progress("holding position", 1.0)
         return Progress("stopping" if ex.braking else "surfacing", 1.0)

@@ -11,7 +11,7 @@ import pytest
 
 from onboard.core import guidance
 from onboard.core.autopilot import Autopilot
-from onboard.core.commands import Hold, SetMode
+from onboard.core.commands import Disarm, Hold, SetMode
 from onboard.core.mission.model import Goal, Mission, Obstacle
 from onboard.core.mission.state import MissionState
 from onboard.core.nav.types import nav_state_at
@@ -200,3 +200,35 @@ def test_a_new_path_that_loops_back_across_its_start_is_flown_from_its_start() -
     # THEN the vehicle is at the path's start, not on the run-in (before: projected onto the run-in, it flew
     # straight to the goal, 10.5 m off the path and 5.8 m short of the goal's depth)
     assert ref.along_track_m < 1.0
+
+
+def test_after_complete_a_vehicle_the_water_carries_astern_holds_position_at_the_goal() -> None:
+    # GIVEN a mission COMPLETE (surface) at the goal (20, 0), heading north, while a head current the
+    # estimate cannot see carries the vehicle astern over ground (head_current.yaml: swept 8-13 m back in
+    # 20 s once the propeller stopped)
+    ap = _complete_at_speed(0.0)
+    outs = [tick(ap, 0.1 + 0.05 * k, x=20.0 - 0.02 * k, u=-0.4) for k in range(20)]
+    # THEN it holds position: a leg into the drift (north) ending at the goal, the propeller forward, live
+    ex = ap.executive
+    assert ex.path_kind == "hold" and ex.path is not None, ex.path_kind
+    end = ex.path.sample(ex.path.length_m)
+    assert (end.x_m, end.y_m) == pytest.approx((20.0, 0.0)) and end.yaw_rad == pytest.approx(0.0, abs=1e-6)
+    assert outs[-1].propeller_rps > 1.0 and ap.actuators_live and outs[-1].mode is m.ActuatorMode.ARMED
+    assert ap.status.state is S.COMPLETE
+    assert ex.surface.progress(ex, ap).text == "holding position"
+    # WHEN the operator disarms THEN the hold ends: IDLE, propeller 0, not live
+    assert ap.handle(Disarm(source="test")).accepted
+    out = tick(ap, 1.2, x=19.6, u=-0.4)
+    assert ap.status.state is S.IDLE and out.propeller_rps == 0.0 and not ap.actuators_live
+    assert ex.path_kind != "hold"
+
+
+def test_a_stopped_vehicle_in_still_water_does_not_hold() -> None:
+    # GIVEN a mission COMPLETE (surface) in still water, the vehicle stopping 2 m past its goal
+    ap = _complete_at_speed(0.3)
+    for k in range(40):
+        tick(ap, 0.1 + 0.05 * k, x=20.0 + 0.01 * k, u=max(0.3 - 0.02 * k, 0.0))
+    # THEN, stopped and still, it does not hold: propeller 0, not live
+    out = tick(ap, 2.2, x=20.4, u=0.0)
+    out = tick(ap, 2.25, x=20.4, u=0.0)
+    assert ap.executive.path_kind != "hold" and out.propeller_rps == 0.0 and not ap.actuators_live
