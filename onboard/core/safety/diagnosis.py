@@ -482,7 +482,10 @@ def step(
             accel = (speed_lp - before) / dt_s
             steady = math.sqrt(max(0.0, speed_lp * speed_lp + params.surge_length_m * accel))
             expected = _interp(steady, *inputs.speed_to_rps)
-            if expected > 0.0:
+            # the propeller drives the vehicle (not the run-in's coast and brake, where the map says little):
+            # both the steady speed and the rps at least the map's at thrust_min_speed_mps
+            floor_rps = _interp(params.thrust_min_speed_mps, *inputs.speed_to_rps)
+            if steady >= params.thrust_min_speed_mps and rps_lp >= floor_rps and expected > 0.0:
                 ratio = rps_lp / expected
                 if ratio > params.thrust_rps_ratio:
                     conditions[FaultFlag.THRUST_LOSS] = (
@@ -501,8 +504,8 @@ def step(
         FaultFlag.FIN_STUCK: params.fin_stuck_s,
         FaultFlag.THRUST_LOSS: params.thrust_loss_s,
     }
-    # a detector that could not judge this tick (too slow, no fixes good enough, not under way) leaves its
-    # fault as it was: no evidence either way
+    # a detector that could not judge this tick (too slow, no fixes good enough, not under way, turning)
+    # leaves its fault as it was, and what was pending starts again: no evidence either way
     judged = {
         FaultFlag.DVL_DROPOUT: True,
         FaultFlag.FIX_OUTAGE: True,
@@ -520,6 +523,7 @@ def step(
     for flag, hold_s in persist.items():
         on = bool(flags & flag)
         if not judged[flag]:
+            since.pop(flag.value, None)  # a condition must hold over judged ticks without a break
             continue
         if (flag in conditions) == on:
             since.pop(flag.value, None)  # as it is: nothing pending
