@@ -97,6 +97,9 @@ _SAID = {
     Reaction.ABORT: "ABORT (surface)",
 }
 FINS = ("rudder", "stern_port", "stern_starboard")
+#: The actuator node's feedback older than this (s) is not judged: a silent node (a stalled bench, a lost bus)
+#: is the bus watchdogs' to name, not a stuck fin's or a lost thrust's.
+FEEDBACK_MAX_AGE_S = 0.5
 
 
 def fin_reaction(fin: str) -> Reaction:
@@ -446,7 +449,8 @@ def step(
     # 4. Stuck fin: FIN_STATUS against the command the actuators follow.
     fin_error = math.nan
     fb = inputs.feedback
-    if inputs.actuators_follow and fb.fins_rad is not None:
+    fins_fresh = now_s - fb.fins_t_s <= FEEDBACK_MAX_AGE_S
+    if inputs.actuators_follow and fb.fins_rad is not None and fins_fresh:
         cmd = inputs.command
         commanded = (cmd.rudder_rad, cmd.stern_port_rad, cmd.stern_starboard_rad)
         errors = [math.degrees(a - c) for a, c in zip(fb.fins_rad, commanded, strict=True)]
@@ -467,7 +471,8 @@ def step(
     speed = nav.water_speed_mps if nav.current_std_mps < CURRENT_BELIEVED_STD_MPS else nav.speed_mps
     prop = fb.propeller_rps
     thrust_since = state.thrust_since_s
-    if prop is not None and prop > 0.0 and dvl_fresh and math.isfinite(speed) and dt_s > 0.0:
+    prop_fresh = now_s - fb.propeller_t_s <= FEEDBACK_MAX_AGE_S
+    if prop is not None and prop > 0.0 and prop_fresh and dvl_fresh and math.isfinite(speed) and dt_s > 0.0:
         # judged once the propeller has turned ahead, with the DVL, for two filter times (the run-in's
         # braking reverses it: the low-pass starts again after)
         thrust_since = now_s if thrust_since is None else thrust_since

@@ -46,6 +46,7 @@ class Sim:
         rudder_stuck_deg: float | None = None,
         rudder_cmd_deg: float = 0.0,
         thrust_factor: float = 1.0,
+        feedback_age_s: float = 0.0,
     ) -> d.DiagnosisResult:
         n = self.noise
         self.t += DT
@@ -82,7 +83,9 @@ class Sim:
             filter=self.filt,
             nav_debug=NavDebug(DT, fix_accepted=accepted),
             fix=fix,
-            feedback=d.ActuatorFeedback((rudder, 0.0, 0.0), self.t, rps, self.t),
+            feedback=d.ActuatorFeedback(
+                (rudder, 0.0, 0.0), self.t - feedback_age_s, rps, self.t - feedback_age_s
+            ),
             command=ActuatorCommand(cmd, 0.0, 0.0, rps),
             speed_to_rps=SPEED_MAP,
             fix_sigma_m=self.fix_sigma_m,
@@ -181,6 +184,12 @@ def test_fin_stuck_named_from_fin_status_rudder_holds() -> None:
     assert "rudder" in found[0][1].text
     assert found[0][0] - t0 <= PARAMS.fin_stuck_s + 0.2
     assert d.fin_reaction("stern_port") is d.Reaction.ABORT
+
+
+def test_a_silent_actuator_node_is_no_stuck_fin() -> None:
+    """FIN_STATUS that stopped coming (a stalled bench, a lost bus) is the watchdogs' to name."""
+    sim = _healthy(5.0)
+    assert sim.run(5.0, rudder_stuck_deg=6.0, rudder_cmd_deg=-10.0, feedback_age_s=1.0) == []
 
 
 def test_a_fin_slewing_to_its_command_is_no_fault() -> None:
