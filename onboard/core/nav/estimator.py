@@ -96,7 +96,9 @@ class NavParams:
       and ``sway_per_yaw_rate_mps_per_radps``: the sideslip through the water counted as noise across the
       heading, m/s + (m/s)/(rad/s) * |r|; ``max_current_mps``: its clamp (:mod:`onboard.core.nav.current`).
     - ``gate_chi2``: innovation gate on d^2 (2 dof; 13.8 = 99.9 %).
-    - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``.
+    - ``max_consecutive_rejections``: this many rejected fixes in a row raise ``FIX_REJECTED_REPEATEDLY``
+      and the estimate restarts at the last of them (the fixes agree with each other, not with it: a gate
+      that locked the fixes out while a heading error was dead-reckoned); one outlier never moves it.
     - ``fix_timeout_s``: a fix older than this raises ``POSITION_STALE`` (dead reckoning, still valid).
     - ``dvl_timeout_s``: a DVL velocity older than this is ``DVL_STALE`` (dead reckoning coasts), s.
 
@@ -446,6 +448,12 @@ def step(
                 consecutive += 1
                 conditions |= NavCondition.FIX_REJECTED
                 fix_accepted = False
+                if consecutive >= params.max_consecutive_rejections:
+                    # So many fixes in a row disagree with the estimate that the estimate is what is wrong
+                    # (a heading error dead-reckoned, a lost gate): it restarts at this fix, the bias kept.
+                    fx = AxisFilter(fix.x_m, fx.b_mps, r_m2, 0.0, fx.p11)
+                    fy = AxisFilter(fix.y_m, fy.b_mps, r_m2, 0.0, fy.p11)
+                    accepted_fix_t_s = fix.t_sample_s
     if consecutive >= params.max_consecutive_rejections:
         conditions |= NavCondition.FIX_REJECTED_REPEATEDLY
 

@@ -132,3 +132,30 @@ def test_the_nees_of_a_simulated_run_is_within_its_band() -> None:
     assert sum(1 for v in values if v > hi) / len(values) < 0.05
     assert inside > 0.8
     assert 0.5 < sum(values) / len(values) < 3.0
+
+
+def _biased_heading_run(params: NavParams, seconds: float = 60.0) -> float:
+    """1.5 m/s north with 4 mm fixes at 20 Hz while the compass reads 8 deg off: the final error, m."""
+    rng = random.Random(5)
+    state = NavFilterState.initial()
+    nav = None
+    bias = math.radians(8.0)
+    for k in range(round(seconds / DT) + 1):
+        t = k * DT
+        fix = PositionFix(1.5 * t + rng.gauss(0, 0.003), rng.gauss(0, 0.003), t)
+        inputs = NavInputs(
+            position=fix, dvl=DvlVelocity(1.5, 0.0, 0.0, t), ahrs=Ahrs(0.0, 0.0, bias, 0.0, 0.0, 0.0, t),
+            depth=Depth(1.0, t),
+        )  # fmt: skip
+        nav, state, _ = step(inputs, state, params, t)
+    assert nav is not None
+    return math.hypot(nav.x_m - 1.5 * seconds, nav.y_m)
+
+
+def test_fixes_that_agree_with_each_other_not_with_the_estimate_restart_it() -> None:
+    # GIVEN a compass 8 deg off (0.2 m/s across the track dead-reckoned) and precise fixes: the gate soon
+    # refuses every fix, and without a way out the estimate runs away on the biased heading
+    locked = dataclasses.replace(P, max_consecutive_rejections=10**9)
+    assert _biased_heading_run(locked) > 5.0
+    # THEN five refused in a row restart the estimate at the fix: it stays with the fixes
+    assert _biased_heading_run(P) < 0.5
