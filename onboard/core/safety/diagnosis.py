@@ -176,7 +176,7 @@ class DiagnosisParams:
         desc="a fin beyond fin_error_deg from its command this long is named",
     )
     thrust_rps_ratio: float = param(
-        1.2, min=1.05, max=5.0,
+        1.25, min=1.05, max=5.0,
         desc="PROP_STATUS rps over the speed map's rps for the steady speed the motion shows, beyond this: "
         "a thrust_loss",
     )  # fmt: skip
