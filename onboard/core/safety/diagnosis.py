@@ -12,7 +12,8 @@ table with the measured detection times is in ``docs/control.md``):
 - ``dvl_dropout``: no DVL velocity for ``overdue_factor`` x its usual interval (at least
   ``dvl_overdue_s``). Continue: dead reckoning on the held velocity, the position's sigma growing (the 95 %
   arrival and ``[nav] max_position_std_m`` bound it).
-- ``fix_outage``: no position fix for ``overdue_factor`` x its usual interval (at least ``fix_overdue_s``).
+- ``fix_outage``: no position fix for ``overdue_factor`` x its usual interval (at least ``fix_overdue_s``;
+  before three gaps were seen, ``overdue_factor`` x ``[nav] fix_timeout_s``).
   Continue: the sigma grows; a goal that cannot be confirmed HOLDs, its reason naming the outage.
 - ``compass_bias``: over the accepted fixes of the last ``compass_window_s``, the direction of the fixes'
   displacement against the dead-reckoned one (DVL x heading, no fixes): their angle is the heading's error
@@ -46,6 +47,7 @@ from __future__ import annotations
 
 import enum
 import math
+import statistics
 from dataclasses import dataclass, field, replace
 
 from auv_common.config import check_declared, param
@@ -100,6 +102,9 @@ FINS = ("rudder", "stern_port", "stern_starboard")
 #: The actuator node's feedback older than this (s) is not judged: a silent node (a stalled bench, a lost bus)
 #: is the bus watchdogs' to name, not a stuck fin's or a lost thrust's.
 FEEDBACK_MAX_AGE_S = 0.5
+#: A sensor's interval is the median of its last GAPS_KEPT gaps, known once GAPS_KNOWN were seen.
+GAPS_KEPT = 5
+GAPS_KNOWN = 3
 
 
 def fin_reaction(fin: str) -> Reaction:
@@ -234,32 +239,35 @@ class Named:
 
 @dataclass(frozen=True)
 class _Arrivals:
-    """A sensor's usual interval between samples: a slow average of the gaps that are not outages."""
+    """A sensor's usual interval between samples: the median of its last :data:`GAPS_KEPT` gaps (an outage's
+    one long gap, or a burst's short one, does not move it)."""
 
     last_t_s: float = -math.inf
-    interval_s: float = 0.0  # 0: not known yet (fewer than two samples)
+    gaps_s: tuple[float, ...] = ()
 
-    def seen(self, t_s: float, factor: float) -> _Arrivals:
+    @property
+    def interval_s(self) -> float:
+        """The usual interval (s); 0 while fewer than :data:`GAPS_KNOWN` gaps were seen."""
+        if len(self.gaps_s) < GAPS_KNOWN:
+            return 0.0
+        return statistics.median(self.gaps_s)
+
+    def seen(self, t_s: float) -> _Arrivals:
         if not math.isfinite(t_s) or t_s <= self.last_t_s:
             return self
         if not math.isfinite(self.last_t_s):
-            return _Arrivals(t_s, 0.0)
-        gap = t_s - self.last_t_s
-        if self.interval_s <= 0.0:
-            return _Arrivals(t_s, gap)
-        if gap > factor * self.interval_s:  # the end of an outage: not the usual interval
-            return _Arrivals(t_s, self.interval_s)
-        return _Arrivals(t_s, self.interval_s + 0.1 * (gap - self.interval_s))
+            return _Arrivals(t_s, ())
+        return _Arrivals(t_s, (*self.gaps_s, t_s - self.last_t_s)[-GAPS_KEPT:])
 
     def overdue(self, now_s: float, factor: float, min_s: float, unknown_s: float) -> float | None:
         """The silence (s) when it is overdue, else None: after ``factor`` usual intervals, at least
-        ``min_s``; while the interval is not known (one sample seen), after ``unknown_s`` (the configured
+        ``min_s``; while the interval is not known, after ``factor`` x ``unknown_s`` (the configured
         timeout); never before a first sample."""
         if not math.isfinite(self.last_t_s):
             return None
-        limit = max(min_s, factor * self.interval_s) if self.interval_s > 0.0 else max(min_s, unknown_s)
+        interval = self.interval_s if self.interval_s > 0.0 else unknown_s
         silent = now_s - self.last_t_s
-        return silent if silent > limit else None
+        return silent if silent > max(min_s, factor * interval) else None
 
 
 @dataclass(frozen=True)
@@ -382,14 +390,14 @@ def step(
     reactions: dict[FaultFlag, Reaction] = {}
 
     # 1. Dropped sensors: staleness against the sensor's own usual interval.
-    dvl = state.dvl.seen(filt.dvl.t_sample_s if filt.dvl is not None else -math.inf, params.overdue_factor)
+    dvl = state.dvl.seen(filt.dvl.t_sample_s if filt.dvl is not None else -math.inf)
     dvl_silent = dvl.overdue(now_s, params.overdue_factor, params.dvl_overdue_s, inputs.dvl_timeout_s)
     if dvl_silent is not None:
         conditions[FaultFlag.DVL_DROPOUT] = (
             f"no DVL velocity for {dvl_silent:.1f} s{_usually(dvl)}: dead "
             "reckoning on the last, the position's sigma growing"
         )
-    fix = state.fix.seen(filt.last_fix_t_s, params.overdue_factor)
+    fix = state.fix.seen(filt.last_fix_t_s)
     fix_silent = fix.overdue(now_s, params.overdue_factor, params.fix_overdue_s, inputs.fix_timeout_s)
     if fix_silent is not None:
         conditions[FaultFlag.FIX_OUTAGE] = (

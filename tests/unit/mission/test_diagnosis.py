@@ -143,6 +143,15 @@ def test_sparse_fixes_are_not_an_outage() -> None:
     assert found[0][0] - t0 >= 10.0
 
 
+def test_a_burst_of_fixes_then_sea_fixes_is_no_outage() -> None:
+    """Two fixes a tick apart, then one every 5 s (the sea profile's start): the interval is the median of
+    the last gaps, so the burst's one short gap does not make every 5 s wait an outage."""
+    sim = Sim(fix_hz=0.2, fix_sigma_m=2.0)
+    sim.filt = dataclasses.replace(sim.filt, last_fix_t_s=-0.05)
+    sim.state = d.DiagnosisState(fix=d._Arrivals(-0.1, ()))
+    assert sim.run(60.0) == []
+
+
 def test_compass_bias_named_from_the_fixes() -> None:
     sim = _healthy(10.0)
     t0 = sim.t
