@@ -418,8 +418,8 @@ def test_the_directory_stays_within_its_bytes_as_the_log_grows(tmp_path: Path) -
             while not within():
                 assert time.monotonic() < deadline, sorted((p.name, p.stat().st_size) for p in logs.iterdir())
                 time.sleep(0.02)
+    flight.close()  # it writes what the writer thread still holds (on a loaded machine, all of it)
     grown = current.stat().st_size
-    flight.close()
     # AND at the end only the run's own log is left, it alone over the budget
     assert log_files(logs) == [current] and grown > 20_000
 
