@@ -11,6 +11,7 @@ import re
 import shutil
 import signal
 import socket
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -292,9 +293,16 @@ def test_the_papers_law_completes_its_straight_and_turn_with_the_shape_of_figs_8
     spec = load_spec(Path(__file__).parents[2] / "hil_sim" / "campaigns" / "paper_law.yaml")
     runs = {r.run_id: r for r in spec.runs}
     for mission in ("straight", "turn"):
+        # THEN over the spec's 10 seeds it completes, near the goal (the paper: 0.13 m and 0.2 m; issue 23
+        # item 6: within twice that). One seed is a coin toss for the turn: the law differentiates the noisy
+        # error, and its final error per seed moves with anything that moves the noise (the packaged fix
+        # sigma 10 -> 6 -> 4 -> 8 mm: seed 0 at 0.23, 0.29, 0.43, 0.07 m; the median 0.12-0.18 m)
+        rows = [fly(runs[f"{mission}_s{seed}_c0d0_basin_o1_nominal"]).row for seed in range(10)]
+        errors_m = sorted(r["final_position_error_m"] for r in rows)
+        completed = [r for r in rows if r["final_state"] == "COMPLETE"]
+        assert len(completed) >= 9, [r["final_reason"] for r in rows]  # the issue's figure: 9/10
+        assert statistics.median(errors_m) <= 0.2, errors_m
         out = fly(runs[f"{mission}_s0_c0d0_basin_o1_nominal"], keep_truth=True)
-        # THEN it completes, near the goal (the paper: 0.13 m and 0.2 m)
-        assert out.row["final_state"] == "COMPLETE" and out.row["final_position_error_m"] <= 0.3, out.row
         # and the along-track error grows at the start (the vehicle starts at rest), then shrinks
         t_s, e_x, _ = paper_errors(out.truth, out.reference)
         peak = max(range(len(e_x)), key=lambda i: e_x[i] if t_s[i] - t_s[0] < 20.0 else -math.inf)
