@@ -26,7 +26,10 @@ table with the measured detection times is in ``docs/control.md``):
   rotated by the attitude: w and pitch x speed; a complementary filter pulled to the sensor over
   ``depth_time_constant_s``), its innovation beyond ``depth_innovation_m`` for ``depth_stuck_s``. ABORT
   (surface): the depth and its limit can no longer be watched.
-- ``fin_stuck``: a fin's FIN_STATUS angle more than ``fin_error_deg`` from its command for ``fin_stuck_s``.
+- ``fin_stuck``: a fin's FIN_STATUS angle more than ``fin_error_deg`` from its command for ``fin_stuck_s``,
+  while it does not move towards the command (at least :data:`FIN_SLEW_MIN_DPS`, measured over
+  :data:`FIN_RATE_BASE_S`): a slow fin chasing its command is no stuck one (campaign margins.yaml, actuators
+  x 4 and x 6: the rudder at +8.7 deg slewing to +20 deg was named stuck and the turn HELD).
   A rudder: HOLD (it would circle; depth control is intact; the operator decides); a stern plane: ABORT
   (depth control lost: surface).
 - ``thrust_loss``: PROP_STATUS's rps over the rps the speed map gives for the steady speed the motion
@@ -102,6 +105,10 @@ FINS = ("rudder", "stern_port", "stern_starboard")
 #: The actuator node's feedback older than this (s) is not judged: a silent node (a stalled bench, a lost bus)
 #: is the bus watchdogs' to name, not a stuck fin's or a lost thrust's.
 FEEDBACK_MAX_AGE_S = 0.5
+#: A fin moving towards its command at least this fast (deg/s) is slewing, not stuck; its rate is measured
+#: over FIN_STATUS samples at least FIN_RATE_BASE_S (s) apart (a stuck fin: 0 deg/s).
+FIN_SLEW_MIN_DPS = 1.0
+FIN_RATE_BASE_S = 0.2
 #: A sensor's interval is the median of its last GAPS_KEPT gaps, known once GAPS_KNOWN were seen.
 GAPS_KEPT = 5
 GAPS_KNOWN = 3
@@ -288,6 +295,9 @@ class DiagnosisState:
     rps_lp: float | None = None
     speed_lp_mps: float | None = None
     thrust_since_s: float | None = None  # the propeller ahead, the DVL fresh, since (s)
+    # fins: a FIN_STATUS sample (t, angles) as the base of their rates, and their last rates (rad/s)
+    fins_base: tuple[float, tuple[float, float, float]] | None = None
+    fins_rate_radps: tuple[float, float, float] = (0.0, 0.0, 0.0)
     #: the mission's faults, in the order named; the mission's START (s, the loop's time base)
     named: tuple[Named, ...] = ()
     mission_start_s: float = 0.0
@@ -458,13 +468,29 @@ def step(
     fin_error = math.nan
     fb = inputs.feedback
     fins_fresh = now_s - fb.fins_t_s <= FEEDBACK_MAX_AGE_S
+    fins_base, fins_rate = state.fins_base, state.fins_rate_radps
+    if fb.fins_rad is not None and fins_fresh:
+        if fins_base is None or fb.fins_t_s < fins_base[0]:
+            fins_base = (fb.fins_t_s, fb.fins_rad)
+        elif fb.fins_t_s - fins_base[0] >= FIN_RATE_BASE_S:
+            span_s = fb.fins_t_s - fins_base[0]
+            fins_rate = (
+                (fb.fins_rad[0] - fins_base[1][0]) / span_s,
+                (fb.fins_rad[1] - fins_base[1][1]) / span_s,
+                (fb.fins_rad[2] - fins_base[1][2]) / span_s,
+            )
+            fins_base = (fb.fins_t_s, fb.fins_rad)
+    else:
+        fins_base, fins_rate = None, (0.0, 0.0, 0.0)
     if inputs.actuators_follow and fb.fins_rad is not None and fins_fresh:
         cmd = inputs.command
         commanded = (cmd.rudder_rad, cmd.stern_port_rad, cmd.stern_starboard_rad)
         errors = [math.degrees(a - c) for a, c in zip(fb.fins_rad, commanded, strict=True)]
         worst = max(range(3), key=lambda i: abs(errors[i]))
         fin_error = errors[worst]
-        if abs(fin_error) > params.fin_error_deg:
+        # towards the command (deg/s): the fin's rate along the sign of what is left to go
+        towards_dps = -math.degrees(fins_rate[worst]) * math.copysign(1.0, fin_error)
+        if abs(fin_error) > params.fin_error_deg and towards_dps < FIN_SLEW_MIN_DPS:
             fin = FINS[worst]
             reaction = fin_reaction(fin)
             conditions[FaultFlag.FIN_STUCK] = (
@@ -575,6 +601,8 @@ def step(
         rps_lp=rps_lp,
         speed_lp_mps=speed_lp,
         thrust_since_s=thrust_since,
+        fins_base=fins_base,
+        fins_rate_radps=fins_rate,
         named=tuple(named),
         mission_start_s=state.mission_start_s,
     )

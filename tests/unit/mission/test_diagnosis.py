@@ -7,6 +7,8 @@ import dataclasses
 import math
 import random
 
+import pytest
+
 from onboard.core.control.actuators import ActuatorCommand
 from onboard.core.control.pd import ControlParams
 from onboard.core.nav.estimator import NavDebug, NavFilterState
@@ -204,6 +206,21 @@ def test_a_silent_actuator_node_is_no_stuck_fin() -> None:
 def test_a_fin_slewing_to_its_command_is_no_fault() -> None:
     sim = _healthy(5.0)
     assert sim.run(1.0, rudder_stuck_deg=0.0, rudder_cmd_deg=20.0) == []  # lags under fin_stuck_s
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_slow_fin_chasing_its_command_for_longer_than_fin_stuck_s_is_no_fault(side: float) -> None:
+    # a rudder slewing at 3 deg/s towards +-20 deg (campaign margins.yaml: actuators x 4 and x 6 were named
+    # stuck at +8.7 deg, commanded +20, and the turn HELD) ...
+    sim = _healthy(5.0)
+    found = []
+    for k in range(round(6.0 / DT)):
+        result = sim.tick(rudder_stuck_deg=side * min(20.0, 3.0 * k * DT), rudder_cmd_deg=side * 20.0)
+        found += list(result.found)
+    assert found == []
+    # ... but once it stops short of the command, it is stuck
+    found = sim.run(PARAMS.fin_stuck_s + 1.0, rudder_stuck_deg=side * 12.0, rudder_cmd_deg=side * 20.0)
+    assert [f.flag for _, f in found] == [d.FaultFlag.FIN_STUCK]
 
 
 def test_thrust_loss_named_from_rps_against_the_speed_map() -> None:
