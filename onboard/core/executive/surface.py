@@ -51,6 +51,12 @@ BRAKE_MAX_S = 40.0
 DEPTH_GAIN_RAD_PER_M = 0.3
 NOSE_UP_MAX_RAD = math.radians(10.0)
 PITCH_GAIN = 1.0
+#: Faster than this over ground ahead (m/s: a HOLD at cruise, not the end after the run-in's 0.25 m/s) the
+#: stop also puts the rudder hard over, the way it was already turning: the reverse propeller alone
+#: decelerates this hull ~0.07 m/s^2 (1.2 m/s: 14.7 m to stop), a hull turning hard sheds its speed in
+#: drag and its way ahead in the turn (4.2 m from 1.2 m/s at 1 and 5 m deep, never deeper;
+#: tests/integration/test_abort_stops.py).
+HARD_OVER_MPS = 0.3
 #: On the run-in the propeller reverses while the vehicle is faster than the speed reference, fully once it
 #: is this much faster (m/s): the run-in's deceleration asks for most of the reverse propeller's authority.
 RUN_IN_MARGIN_MPS = 0.05
@@ -154,7 +160,10 @@ class Stop:
         pitch_d = min(max(DEPTH_GAIN_RAD_PER_M * below_m, 0.0), NOSE_UP_MAX_RAD)
         pitch_err = pitch_d - nav.pitch_rad if math.isfinite(nav.pitch_rad) else 0.0
         stern = -PITCH_GAIN * pitch_err  # negative stern = nose up
-        fins = saturate(ActuatorCommand(0.0, stern, stern, 0.0), previous, limits, dt_s)
+        rudder = 0.0
+        if speed > HARD_OVER_MPS:
+            rudder = math.copysign(math.radians(limits.rudder_limit_deg), previous.rudder_rad)
+        fins = saturate(ActuatorCommand(rudder, stern, stern, 0.0), previous, limits, dt_s)
         rps = reverse_rps(speed, cfg.mission.brake_rps, previous.propeller_rps, limits, dt_s)
         return ActuatorCommand(
             fins.rudder_rad, fins.stern_port_rad, fins.stern_starboard_rad, rps, fins.flags

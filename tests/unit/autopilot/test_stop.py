@@ -40,11 +40,14 @@ def test_after_complete_a_moving_vehicle_brakes_then_goes_still() -> None:
     ap = _complete_at_speed(0.5)
     # WHEN the ticks go on at that speed
     outs = [tick(ap, 0.1 + 0.05 * k, x=20.0 + 0.025 * k, u=0.5) for k in range(20)]
-    # THEN the propeller reverses (at most [mission] brake_rps), the rudder is centred, the stern planes do
-    # not pitch it nose down (deeper), and the actuators are live: armed, ARMED mode (the node obeys)
+    # THEN the propeller reverses (at most [mission] brake_rps), the rudder is hard over (faster than
+    # surface.HARD_OVER_MPS: the turn sheds the way ahead), the stern planes do not pitch it nose down
+    # (deeper), and the actuators are live: armed, ARMED mode (the node obeys)
     last = outs[-1]
     assert last.propeller_rps < -1.0 and last.propeller_rps >= -ap.config.mission.brake_rps
-    assert last.rudder_rad == 0.0 and last.stern_port_rad <= 0.0 and last.stern_starboard_rad <= 0.0
+    rudder_limit_rad = math.radians(ap.config.control.limits.rudder_limit_deg)
+    assert abs(last.rudder_rad) == pytest.approx(rudder_limit_rad)
+    assert last.stern_port_rad <= 0.0 and last.stern_starboard_rad <= 0.0
     assert ap.actuators_live and last.mode is m.ActuatorMode.ARMED and ap.executive.stop.braking
     verdict = ap.handle(SetMode("ready", "test"))  # the operator's "ready" is no lie either
     assert not verdict.accepted and "braking" in verdict.reason, verdict
