@@ -9,7 +9,8 @@ goal at 19.5 m sank on to the 20 m depth limit. Now:
   propeller reverses (:func:`run_in_rps`): drag alone halves this hull's speed only every ~16 m;
 - after COMPLETE (surface) and in HOLD, :class:`Stop` brakes: the propeller in reverse, at most ``[mission]
   brake_rps`` (PROP_CMD carries +-40 rps; the bench's propeller goes to -10 rps), tapering off with the speed
-  over ground ahead, the rudder centred and the stern planes level, nose up where the vehicle is below the
+  over ground ahead, the rudder centred (hard over above :data:`HARD_OVER_MPS`: a HOLD at cruise) and the
+  stern planes level, nose up where the vehicle is below the
   depth the stop began at (its last goal's), so it never sinks below it, and stops within ``[mission]
   stop_distance_m`` (the zone the validator keeps clear past every goal). Once the speed over ground ahead
   is below :data:`STOPPED_MPS` (or after :data:`BRAKE_MAX_S`: a following current the reverse propeller
