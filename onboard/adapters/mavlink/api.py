@@ -86,6 +86,7 @@ class VehicleSnapshot:
     nav_conditions: int = 0  # onboard.core.nav.types.NavCondition bits: what is wrong with navigation
     failsafe_flags: int = 0  # onboard.core.safety.failsafe.FailsafeFlag bits: the checks failing this tick
     fault_flags: int = 0  # onboard.core.safety.diagnosis.FaultFlag bits: the faults the vehicle names
+    fixes_rejected: int = 0  # fixes the navigation refused since boot (NAMED_VALUE_INT FIX_REJ)
     failsafe: str | None = None
     overruns: int = 0
     loop_load: float = NAN  # fraction of the tick period used by the last tick (0..1+)

@@ -11,7 +11,8 @@ excludes home), ``mission_state`` from :data:`STATE_TABLE`. MISSION_ITEM_REACHED
 ``goals_reached`` increases. ACTUATOR_OUTPUT_STATUS carries [rudder_rad, stern_port_rad,
 stern_starboard_rad, propeller_rps]. GLOBAL_POSITION_INT is the local position projected about the
 configured origin (alt = origin altitude - depth). EXTENDED_SYS_STATE (landed state undefined) is off unless
-a ground station sets its interval (MAVSDK does).
+a ground station sets its interval (MAVSDK does). NAMED_VALUE_INT ``FIX_REJ`` (at SYS_STATUS's rate) counts
+the position fixes the navigation's innovation gate refused since boot.
 
 Stream rates are per link, as in ArduPilot: every stream starts at its configured rate on every link, and a
 SET_MESSAGE_INTERVAL changes it for the link it came over only (another station, with the same ids or not,
@@ -185,6 +186,7 @@ class Telemetry:
             (mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, config.nav_rate_hz),
             (mavlink.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, config.actuator_rate_hz),
             (mavlink.MAVLINK_MSG_ID_SYS_STATUS, config.sys_status_rate_hz),
+            (mavlink.MAVLINK_MSG_ID_NAMED_VALUE_INT, config.sys_status_rate_hz),  # FIX_REJ
             (mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, config.mission_current_rate_hz),
             (mavlink.MAVLINK_MSG_ID_HOME_POSITION, config.home_rate_hz),
             (mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, config.home_rate_hz),
@@ -406,6 +408,12 @@ class Telemetry:
                 present, enabled, health, load, 0xFFFF, -1, -1, 0, _i(errors, 0, 65535),
                 _i(s.overruns, 0, 65535), 0, 0, 0,
             )  # fmt: skip
+        elif msg_id == mavlink.MAVLINK_MSG_ID_NAMED_VALUE_INT:
+            # the position fixes the navigation's innovation gate refused since boot (a 20 m jump counted,
+            # not followed), at SYS_STATUS's rate: the operator sees refusals before they repeat
+            m = mavlink.MAVLink_named_value_int_message(
+                boot_ms, b"FIX_REJ", _i(s.fixes_rejected, 0, 2**31 - 1)
+            )
         elif msg_id == mavlink.MAVLINK_MSG_ID_MISSION_CURRENT:
             self.send_mission_current(link=link, exclude=exclude)
             return
