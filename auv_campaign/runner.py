@@ -289,8 +289,9 @@ def fly(spec: RunSpec, keep_truth: bool = False, timings: dict[str, float] | Non
     if time_limit_reached:
         last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
         reason = f"time limit {limit:g} s reached in {status.state.name}{last}"
-    elif not refused and not result.started:
-        reason = f"never under way: {status.reason}"
+    elif not refused and not result.started:  # e.g. START refused (a goal it cannot make good): its words
+        last = f"; the vehicle's last word: {notes[-1].text}" if notes else ""
+        reason = f"never under way: {status.reason}{last}"
     # Measured against the path the onboard planned first for each leg (it plans from where the vehicle
     # is, which may pick another word than the ideal start), the nominal leg where it planned none.
     flown = [first_plans.get(i, leg) for i, leg in enumerate(legs)]

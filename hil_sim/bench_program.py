@@ -12,7 +12,8 @@ Time modes:
 - ``realtime``: one control period per period of the monotonic clock; commands are taken as they come.
 - ``lockstep``: per period, publish the sensors, send SYNC(tick, simulated time), wait for the onboard's
   SYNC_ACK of that tick (collecting its commands), then integrate one period. Simulated time starts only when
-  the onboard's heartbeat reports a running mission (the vehicle starts at rest where the scenario puts it);
+  the onboard's heartbeat reports a running mission (the vehicle starts where the scenario puts it, drifting
+  with the water; the sensors sampled while it waits show that instant: the DVL the drift);
   staleness is counted in ticks; no wall clock is read for the simulation, so runs repeat exactly. A missing
   echo past ``echo_timeout_s`` (wall clock) ends the run with a clear error.
 """
@@ -54,7 +55,7 @@ from hil_sim.model.faults import Fault, FaultError, FaultEvent, FaultMemory
 from hil_sim.model.params import VehicleParams, load_params
 from hil_sim.model.sensors import AhrsMeasurement, DepthMeasurement, DvlMeasurement, Measurement, sample
 from hil_sim.model.sensors import PositionFix as FixMeasurement
-from hil_sim.model.sim import SimSetup, SimState, initial_state, make_setup
+from hil_sim.model.sim import SimSetup, SimState, drifting_with_water, initial_state, make_setup
 from hil_sim.model.sim import step as sim_step
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BenchHub, BusConfig, BusUnavailable, hub_went_away, open_bus
@@ -113,12 +114,26 @@ class BenchConfig:
 
 @dataclass(frozen=True)
 class InitialConfig:
-    """The ``[initial]`` table: where the vehicle starts, at rest (NED)."""
+    """The ``[initial]`` table: where the vehicle starts (NED), drifting with the water (at rest in it).
+
+    A free vehicle at sea before its mission drifts with the water: at t = 0 its velocity over ground is the
+    current, zero through the water, fins neutral, propeller off. In lock-step, simulated time stands still
+    until the onboard reports RUNNING, so the sensors sampled while it waits show that instant: the DVL the
+    drift, the position fix the start point (the onboard's clock stands still too, so the two agree); the
+    onboard's current estimate at START is the current. In real time the vehicle drifts for real from the
+    bench's start. ``held = true`` keeps the bench's old start, at rest over ground in moving water (set
+    sideways 4-5 m in 0.5 m/s before its fins bite, its DVL showing no current before START).
+    """
 
     x_m: float = param(0.0, unit="m", desc="north")
     y_m: float = param(0.0, unit="m", desc="east")
     depth_m: float = param(1.0, unit="m", desc="depth")
     yaw_deg: float = param(0.0, unit="deg", desc="heading, from north")
+    held: bool = param(
+        False,
+        desc="start at rest over ground (the old bench) instead of drifting with the water (velocity over "
+        "ground = the current, zero through the water)",
+    )
 
     def __post_init__(self) -> None:
         check_declared(self)
@@ -426,6 +441,8 @@ class Bench:
         )
         ini = cfg.initial
         body = BodyState(ini.x_m, ini.y_m, ini.depth_m, 0.0, 0.0, math.radians(ini.yaw_deg))
+        if not ini.held:
+            body = drifting_with_water(body, self.setup.current.mean_ned_mps)
         self.state: SimState = initial_state(self.setup, body=body)
         self.rng = np.random.default_rng(cfg.bench.seed)
         # Pre-start samples (their count depends on how long the operator takes) use their own generator.

@@ -38,6 +38,7 @@ from hil_sim.model.sensors import (
     make_schedule,
     sample,
 )
+from onboard.protocol.conventions import body_to_ned_matrix
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -147,6 +148,28 @@ def initial_state(
         actuators=actuators if actuators is not None else ActuatorState(),
         current_ned_mps=current_ned_mps if current_ned_mps is not None else setup.current.mean_ned_mps,
         schedule=make_schedule(setup.sensors, setup.step_s, start_step=1),
+    )
+
+
+def drifting_with_water(body: BodyState, current_ned_mps: tuple[float, float, float]) -> BodyState:
+    """``body`` drifting with the water: its velocity over ground is the current (in body axes), zero through
+    the water, no rotation; the pose kept.
+
+    A vehicle at sea before its mission (propeller off, fins neutral) drifts with the water. Started at rest
+    over ground instead it is set sideways until its fins bite, and its DVL never shows the current before
+    the start, so the onboard's first plan ignores it.
+    """
+    cn, ce, cd = current_ned_mps
+    r11, r12, r13, r21, r22, r23, r31, r32, r33 = body_to_ned_matrix(
+        body.roll_rad, body.pitch_rad, body.yaw_rad
+    )
+    return body._replace(
+        u_mps=r11 * cn + r21 * ce + r31 * cd,
+        v_mps=r12 * cn + r22 * ce + r32 * cd,
+        w_mps=r13 * cn + r23 * ce + r33 * cd,
+        p_radps=0.0,
+        q_radps=0.0,
+        r_radps=0.0,
     )
 
 

@@ -5,6 +5,9 @@ Every goal (all its tries) is watched while :class:`~onboard.core.executive.goto
 
 - **progress**: the vehicle's projection on the path flown (guidance's ``s_proj_m``) must advance, or its
   distance off the path shrink, by at least ``progress_min_mps`` x ``monitor_window_s`` over every window
+  (behind the path's start the way back onto it is the way to its start; a setback there in a goal's first
+  :data:`START_ALLOWANCE_S`, getting under way, is not counted as lost: a vehicle that starts drifting
+  with the water is set back first)
   (what is left to fly is the path beyond the projection plus the way back onto it: a vehicle swept wide
   in a turn that comes back onto the path's end makes progress, one swept away loses it; a new path for
   the same goal, a re-plan on current or the next try after a miss, continues the sum: a vehicle that
@@ -197,6 +200,7 @@ class LegMonitor:
     _s_prev_m: float | None = None
     _off_prev_m: float = 0.0
     _samples: deque[tuple[float, float]] = field(default_factory=deque)  # (t_s, progress_m)
+    _under_way_s: float = 0.0  # a setback before then is not lost progress (the goal's start + allowance)
     _off_since_s: float | None = None  # off the path beyond the bound since
     _infeasible_since_s: float | None = None
 
@@ -205,9 +209,14 @@ class LegMonitor:
         self.key = self.eta_goal = None
 
     def _begin(self, now_s: float) -> None:
-        """A new goal (or the same flown afresh after START / RESUME): its progress from 0."""
+        """A new goal (or the same flown afresh after START / RESUME): its progress from 0; a setback
+        behind the path's start in its first :data:`START_ALLOWANCE_S` (getting under way, the start the
+        ETA allows for too) is not counted as lost: a vehicle that starts drifting with the water is set
+        back 9.4 m by a 1.5 m/s head current before it stems it, then makes good 0.35 m/s; its way back to
+        the path's start was not counted at all, and over its first 60 s it made only 5.1 m."""
         self.progress_m, self._path, self._s_prev_m = 0.0, None, None
         self._samples = deque([(now_s, 0.0)])
+        self._under_way_s = now_s + START_ALLOWANCE_S
         self._off_since_s = self._infeasible_since_s = None
 
     def check(
@@ -232,13 +241,20 @@ class LegMonitor:
             self.eta_goal, self.start_s = index, now_s
             self.expected_s = expected_time_s(config, nav, goal, path.length_m)
             self.expected_text = f"{path.length_m:.1f} m of path"
-        # progress: along the path and back onto it, summed over the leg's paths
+        # progress: along the path and back onto it, summed over the leg's paths; behind the path's start
+        # (the projection held at 0) the way back onto it is the way to its start
         off_m = abs(cross_track_m)
+        behind = s_proj_m is not None and s_proj_m <= 0.0
+        if behind:
+            start = path.sample(0.0)
+            off_m = max(off_m, math.hypot(nav.x_m - start.x_m, nav.y_m - start.y_m))
         if s_proj_m is not None and math.isfinite(s_proj_m) and math.isfinite(off_m):
             if path is self._path and self._s_prev_m is not None:
                 self.progress_m += (s_proj_m - self._s_prev_m) - (off_m - self._off_prev_m)
             self._path, self._s_prev_m, self._off_prev_m = path, s_proj_m, off_m
         window = p.monitor_window_s
+        if behind and now_s < self._under_way_s:  # set back before it reached its path: getting under way
+            self.progress_m = max(self.progress_m, 0.0)
         if now_s - self._samples[-1][0] >= SAMPLE_PERIOD_S:
             self._samples.append((now_s, self.progress_m))
         while len(self._samples) > 1 and now_s - self._samples[1][0] >= window:

@@ -132,6 +132,35 @@ def test_coming_back_onto_the_path_is_progress_and_being_swept_off_it_is_not() -
     assert why_away.startswith("goal 0: no progress, -6.0 m along the path or back onto it in 30 s")
 
 
+def _set_back_then_under_way(setback_s: float) -> tuple[str, float, float]:
+    """A vehicle that starts drifting with a 1.5 m/s head current: set back behind the path's start (the
+    projection held at 0, on the path's line) for ``setback_s``, then making good 0.35 m/s; the first reason
+    within 60 s, its time and the progress then."""
+    cfg, path, mon = config(cross_track_max_m=0.0), straight(), LegMonitor()
+    t, x, why = 0.0, 0.0, ""
+    while t <= 60.0 and not why:
+        x += (-0.75 if t < setback_s else 0.35) * 0.5
+        why = mon.check(cfg, nav(x, 0.0), GOAL, (0, 1), path, max(x, 0.0), 0.0, t)
+        t += 0.5
+    return why, t, mon.progress_m
+
+
+def test_the_way_back_to_the_path_s_start_after_a_setback_while_getting_under_way_is_progress() -> None:
+    # GIVEN a vehicle set back 7.5 m behind its path's start while it gets under way (10 s), then making
+    # good 0.35 m/s (the old monitor counted nothing until it was back at the start: 0.0 m in 30 s, HOLD)
+    why, t, progress_m = _set_back_then_under_way(10.0)
+    # THEN its way back to the start counts, its setback does not: no HOLD for want of progress
+    assert why == "", (why, t)
+    assert progress_m == pytest.approx(0.35 * 50.0, abs=0.5)
+
+
+def test_a_setback_behind_the_start_after_the_start_allowance_is_lost_progress() -> None:
+    # GIVEN a vehicle still swept back behind its path's start 20 s after it began
+    why, _, _ = _set_back_then_under_way(25.0)
+    # THEN what it lost after the allowance counts: no progress, named within a window
+    assert why.startswith("goal 0: no progress, -"), why
+
+
 def test_progress_at_the_guidance_speed_is_fine_and_a_re_plan_continues_the_sum() -> None:
     # GIVEN a leg flown at 0.5 m/s
     cfg, path, mon = config(), straight(), LegMonitor()
