@@ -108,13 +108,19 @@ def current_radius_m(turning_radius_m: float, speed_mps: float, current_mps: flo
     return turning_radius_m * speed_mps / (speed_mps - c)
 
 
-def _said_margin(path: Path, nominal: Any, grown_m: float) -> Path:
-    """``path``, planned with the nominal margin where the grown one found no way: its note says so."""
+#: Less than this (m) of the margin grown for the current is not tried on its own (the nominal is next).
+MIN_GROWN_MARGIN_M = 0.25
+
+
+def _said_margin(path: Path, nominal: Any, grown_m: float, used_m: float | None = None) -> Path:
+    """``path``, planned with a smaller margin (``used_m``; the nominal one) where the grown one found no
+    way: its note says so."""
     if grown_m <= 0.0:
         return path
+    used = nominal.obstacle_margin_m if used_m is None else used_m
     text = (
         f"the obstacle margin grown for the current ({nominal.obstacle_margin_m + grown_m:.1f} m) finds no "
-        f"way: planned with {nominal.obstacle_margin_m:g} m"
+        f"way: planned with {used:.3g} m"
     )
     return replace(path, note=f"{path.note}; {text}" if path.note else text)
 
@@ -169,20 +175,25 @@ def _compute_plan(request: PlanRequest) -> Path:
         radius = nominal.turning_radius_m
         if nominal.current_aware and request.current_mps > 0.0:
             radius = current_radius_m(nominal.turning_radius_m, request.speed_mps, request.current_mps)
-        tries: list[tuple[Any, bool]] = []  # (configuration, with the nominal margin)
-        if grown_m > 0.0:
-            wide = replace(nominal.without_fallbacks(), obstacle_margin_m=nominal.obstacle_margin_m + grown_m)
+        tries: list[tuple[Any, bool]] = []  # (configuration, with less than the grown margin)
+        # the grown margin, then half of it (a start among obstacles that leaves no way with the whole
+        # margin kept the nominal 1 m: clutter_current r4 entered an obstacle in its first turn)
+        for part, short in ((1.0, False), (0.5, True)):
+            if grown_m * part < MIN_GROWN_MARGIN_M:
+                continue
+            margin_m = nominal.obstacle_margin_m + grown_m * part
+            wide = replace(nominal.without_fallbacks(), obstacle_margin_m=margin_m)
             if radius > nominal.turning_radius_m:
-                tries.append((replace(wide, turning_radius_m=radius), False))
-            tries.append((wide, False))
+                tries.append((replace(wide, turning_radius_m=radius), short))
+            tries.append((wide, short))
         if radius > nominal.turning_radius_m:  # no tighter fallback of their own: the nominal radius next
             tries.append((replace(nominal.without_fallbacks(), turning_radius_m=radius), True))
-        for config, nominal_margin in tries:
+        for config, short in tries:
             try:
                 path = to_goal(config)
             except PlannerError:
                 continue
-            return _said_margin(path, nominal, grown_m) if nominal_margin else path
+            return _said_margin(path, nominal, grown_m, config.obstacle_margin_m) if short else path
         return _said_margin(to_goal(nominal), nominal, grown_m)
     # loiter: onto the circle straight ahead of the vehicle, clockwise, then round it
     r = request.loiter_radius_m

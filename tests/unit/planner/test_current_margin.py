@@ -59,23 +59,27 @@ def test_a_measured_cross_track_widens_the_margin_in_still_water() -> None:
     assert _clearance_m(0.0, 1.5) >= 2.5 - 1e-6
 
 
-def test_a_goal_within_the_grown_margin_plans_with_the_nominal_margin_and_says_so() -> None:
-    # GIVEN a goal 3.2 m from the obstacle's edge: inside the grown (1 + 3 m) margin, outside the nominal
+def test_a_goal_within_the_grown_margin_plans_with_half_of_it_and_says_so() -> None:
+    # GIVEN a goal 3.2 m from the obstacle's edge: inside the grown (1 + 3 m) margin, outside 1 + 1.5 m
     goal = Goal(20.0, 6.7, 1.0, 0.0)
     req = PlanRequest(1, "goal", 0, (0.0, 6.7, 0.0), 1.0, goal, FENCE, PLANNER, 2.0, 0.0, 2.0, 1.0, 1.0)
-    # THEN it is planned, not refused, and the note says with which margin
+    # THEN it is planned, not refused, and the note says with which margin (the nominal 1 m before)
     path = compute_plan(req)
-    assert "the obstacle margin grown for the current (4.0 m) finds no way: planned with 1 m" in path.note
+    assert "the obstacle margin grown for the current (4.0 m) finds no way: planned with 2.5 m" in path.note
 
 
-def test_where_the_grown_margin_finds_no_way_the_nominal_margin_plans_and_says_so() -> None:
-    # GIVEN the vehicle facing an obstacle 3.5 m ahead of it (edge), a goal behind it, in 1 m/s of current:
-    # grown by 3 m its edge is 0.5 m ahead and blocks both turning circles; the nominal 1 m does not
-    fence = ((5.5, 0.0, 1.0),)
+@pytest.mark.parametrize(("centre_m", "used"), [(5.5, "2.5 m"), (4.0, "1 m")])
+def test_where_the_grown_margin_finds_no_way_a_smaller_one_plans_and_says_so(
+    centre_m: float, used: str
+) -> None:
+    # GIVEN the vehicle facing an obstacle (radius 1 m) 5.5 / 4.0 m ahead of it, a goal behind it, in 1 m/s of
+    # current: grown by 3 m it blocks both turning circles; grown by half of that (1.5 m) it leaves a way
+    # from 5.5 m (planned with the nominal 1 m before), not from 4.0 m: the nominal margin then
+    fence = ((centre_m, 0.0, 1.0),)
     goal = Goal(-20.0, 0.0, 1.0, math.pi)
     req = PlanRequest(1, "goal", 0, (0.0, 0.0, 0.0), 1.0, goal, fence, PLANNER, 2.0, 0.0, 2.0, 1.0, 1.0)
     path = compute_plan(req)
-    assert "the obstacle margin grown for the current (4.0 m) finds no way: planned with 1 m" in path.note
+    assert f"the obstacle margin grown for the current (4.0 m) finds no way: planned with {used}" in path.note
 
 
 def test_a_re_plan_for_the_current_starts_on_the_path_flown_not_where_the_drift_put_the_vehicle() -> None:
