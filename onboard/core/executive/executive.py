@@ -128,7 +128,8 @@ class Executive:
         """Brake to a stop from now on, never deeper than the vehicle is now (a loiter that falls back to
         surfacing calls it too)."""
         n = v.last_nav
-        self.stop.begin(n.depth_m if n is not None else math.nan)
+        obstacles = tuple((o.x_m, o.y_m, o.radius_m) for o in v.mission.obstacles) if v.mission else ()
+        self.stop.begin(n.depth_m if n is not None else math.nan, obstacles)
 
     def mission_replaced(self) -> None:
         """New goals: nothing reached, no path."""

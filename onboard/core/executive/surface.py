@@ -24,6 +24,7 @@ contract's ABORT mode is propeller off at the actuator node; its stern planes ar
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from onboard.core.config import CoreConfig
@@ -58,6 +59,36 @@ PITCH_GAIN = 1.0
 #: drag and its way ahead in the turn (4.2 m from 1.2 m/s at 1 and 5 m deep, never deeper;
 #: tests/integration/test_abort_stops.py).
 HARD_OVER_MPS = 0.3
+#: The turn a fast stop makes with the rudder hard over, as a circle of this radius (m; from 1.05 m/s it
+#: turned 125 deg over 6 m ahead, clutter_current r7): the stop turns the side whose circle keeps clear of
+#: the obstacles (the way it was turning took it 1.4 m into one 5 m past the last goal).
+STOP_TURN_RADIUS_M = 4.0
+#: ... where that circle keeps less than this (m) from an obstacle and the other side's keeps more.
+STOP_TURN_CLEAR_M = 2.0
+
+
+def clear_side(
+    x_m: float, y_m: float, yaw_rad: float, obstacles: Sequence[tuple[float, float, float]], turning: float
+) -> float:
+    """The rudder's sign for a fast stop's hard-over turn from (``x_m``, ``y_m``, ``yaw_rad``) among the
+    ``obstacles`` (x, y, radius): the way it was turning (``turning``, the rudder's sign now; 0.0 = port)
+    unless that turn's circle (:data:`STOP_TURN_RADIUS_M`) comes within :data:`STOP_TURN_CLEAR_M` of an
+    obstacle and the other's keeps farther."""
+    way = 1.0 if turning >= 0.0 else -1.0  # positive rudder: a turn to port (the bus contract's sign)
+
+    def clearance_m(rudder_sign: float) -> float:
+        side = -rudder_sign  # to port: the centre to the left (NED: yaw - 90 deg)
+        cx = x_m + STOP_TURN_RADIUS_M * math.cos(yaw_rad + side * math.pi / 2.0)
+        cy = y_m + STOP_TURN_RADIUS_M * math.sin(yaw_rad + side * math.pi / 2.0)
+        return min(
+            (math.hypot(ox - cx, oy - cy) - STOP_TURN_RADIUS_M - r for ox, oy, r in obstacles),
+            default=math.inf,
+        )
+
+    kept_m = clearance_m(way)
+    return -way if kept_m < STOP_TURN_CLEAR_M and clearance_m(-way) > kept_m else way
+
+
 #: On the run-in the propeller reverses while the vehicle is faster than the speed reference, fully once it
 #: is this much faster (m/s): the run-in's deceleration asks for most of the reverse propeller's authority.
 RUN_IN_MARGIN_MPS = 0.05
@@ -135,11 +166,14 @@ class Stop:
     braking: bool = False
     t_s: float = 0.0  # how long it has braked (s)
     depth_m: float = math.nan  # the depth it began at (m): never deeper than that
+    obstacles: tuple[tuple[float, float, float], ...] = ()  # the mission's (x, y, radius), m
+    rudder_sign: float = 0.0  # the side of a fast stop's hard-over turn, chosen at its first (0: not yet)
 
-    def begin(self, depth_m: float) -> None:
+    def begin(self, depth_m: float, obstacles: tuple[tuple[float, float, float], ...] = ()) -> None:
         """Brake from now on, never deeper than ``depth_m`` (the vehicle's depth now: at COMPLETE, its last
-        goal's)."""
+        goal's); a fast stop turns hard to the side clear of ``obstacles`` (:func:`clear_side`)."""
         self.braking, self.t_s, self.depth_m = True, 0.0, depth_m
+        self.obstacles, self.rudder_sign = obstacles, 0.0
 
     def end(self) -> None:
         self.braking = False
@@ -163,7 +197,13 @@ class Stop:
         stern = -PITCH_GAIN * pitch_err  # negative stern = nose up
         rudder = 0.0
         if speed > HARD_OVER_MPS:
-            rudder = math.copysign(math.radians(limits.rudder_limit_deg), previous.rudder_rad)
+            if self.obstacles and not self.rudder_sign and nav.position_valid:
+                self.rudder_sign = clear_side(
+                    nav.x_m, nav.y_m, nav.yaw_rad, self.obstacles, previous.rudder_rad
+                )
+            rudder = math.copysign(
+                math.radians(limits.rudder_limit_deg), self.rudder_sign or previous.rudder_rad
+            )
         fins = saturate(ActuatorCommand(rudder, stern, stern, 0.0), previous, limits, dt_s)
         rps = reverse_rps(speed, cfg.mission.brake_rps, previous.propeller_rps, limits, dt_s)
         return ActuatorCommand(
