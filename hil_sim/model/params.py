@@ -333,6 +333,20 @@ class SensorProfileConfig:
     depth_std_m: float = _noise(0.005, "m", "depth")
     dvl_rate_hz: float = _sensor_rate(10.0, "DVL")
     dvl_std_mps: float = _noise(0.005, "m/s", "DVL velocity")
+    dvl_scale_bias_std: float = param(
+        0.003,
+        unit="-",
+        min=0.0,
+        max=0.1,
+        desc="DVL scale-factor error, 1-sigma of the fraction drawn once per run from the seed (a"
+        " bottom-track DVL: 0.2-0.5 % of speed); every velocity it reports is (1 + that) x the truth",
+    )
+    dvl_offset_bias_std_mps: float = param(
+        0.001,
+        unit="m/s",
+        min=0.0,
+        desc="DVL velocity offset, 1-sigma per body axis drawn once per run from the seed (a constant bias)",
+    )
     fix_rate_hz: float = _sensor_rate(20.0, "position fix")
     fix_std_m: float = _noise(0.003, "m", "position fix")
 
@@ -504,6 +518,8 @@ class SensorProfile:
     dvl_std_mps: float
     fix_rate_hz: float
     fix_std_m: float
+    dvl_scale_bias_std: float = 0.0
+    dvl_offset_bias_std_mps: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -559,6 +575,8 @@ def _sensor_profile(cfg: SensorProfileConfig) -> SensorProfile:
         dvl_std_mps=cfg.dvl_std_mps,
         fix_rate_hz=cfg.fix_rate_hz,
         fix_std_m=cfg.fix_std_m,
+        dvl_scale_bias_std=cfg.dvl_scale_bias_std,
+        dvl_offset_bias_std_mps=cfg.dvl_offset_bias_std_mps,
     )
 
 

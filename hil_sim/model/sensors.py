@@ -7,6 +7,12 @@ multiples of the sensor period, rounded to whole integration steps (so the effec
 
 Noise: zero-mean Gaussian, 1-sigma from the profile, drawn from the caller's ``numpy.random.Generator`` in a
 fixed order (AHRS, depth, DVL, fix), so a seed reproduces a run bit for bit.
+
+Bias: the DVL also carries a bias, as a real bottom-track DVL does (a scale-factor error of 0.2-0.5 % of
+speed and a small offset): drawn once per run from the run's seed (:func:`dvl_bias`, its own stream, so the
+white noise above is drawn exactly as without it), constant over the run. The profile's
+``dvl_scale_bias_std`` / ``dvl_offset_bias_std_mps`` are the bench's truth; the onboard's ``[nav]``
+``initial_bias_sigma_mps`` states it.
 """
 
 from __future__ import annotations
@@ -95,6 +101,38 @@ def advance_schedule(schedule: SensorSchedule, step_index: int) -> SensorSchedul
     return SensorSchedule(schedule.period_steps, tuple(nxt))  # type: ignore[arg-type]
 
 
+#: Mixed with the run's seed to give the DVL bias its own stream ("DVL" in ASCII).
+_DVL_BIAS_STREAM = 0x44564C
+_dvl_bias_cache: dict[tuple[object, float, float], tuple[float, float, float, float]] = {}
+
+
+def dvl_bias(profile: SensorProfile, rng: np.random.Generator) -> tuple[float, float, float, float]:
+    """This run's DVL bias: (scale-factor error, u, v, w offsets in m/s), fixed for the run.
+
+    Drawn from the run's seed (the seed sequence's first entropy word, the bench's seed: the pre-start
+    generator ``[seed, 1]`` sees the same DVL), not from ``rng``'s stream, which it leaves untouched. A
+    generator without a seed sequence, or a profile with both 1-sigmas 0, gives no bias.
+    """
+    if profile.dvl_scale_bias_std == 0.0 and profile.dvl_offset_bias_std_mps == 0.0:
+        return (0.0, 0.0, 0.0, 0.0)
+    seed_seq = getattr(rng.bit_generator, "seed_seq", None)
+    entropy = getattr(seed_seq, "entropy", None)
+    if entropy is None:
+        return (0.0, 0.0, 0.0, 0.0)
+    root = int(entropy if isinstance(entropy, int) else entropy[0])
+    key = (root, profile.dvl_scale_bias_std, profile.dvl_offset_bias_std_mps)
+    bias = _dvl_bias_cache.get(key)
+    if bias is None:
+        e = np.random.default_rng([root, _DVL_BIAS_STREAM]).standard_normal(4)
+        so = profile.dvl_offset_bias_std_mps
+        scale = profile.dvl_scale_bias_std * float(e[0])
+        bias = (scale, so * float(e[1]), so * float(e[2]), so * float(e[3]))
+        if len(_dvl_bias_cache) > 256:
+            _dvl_bias_cache.clear()
+        _dvl_bias_cache[key] = bias
+    return bias
+
+
 def sample(
     truth: BodyState,
     t_s: float,
@@ -124,12 +162,13 @@ def sample(
     if mask[2]:
         e = rng.standard_normal(3)
         s = profile.dvl_std_mps
+        scale, bu, bv, bw = dvl_bias(profile, rng)
         out.append(
             DvlMeasurement(
                 t_s,
-                truth.u_mps + s * float(e[0]),
-                truth.v_mps + s * float(e[1]),
-                truth.w_mps + s * float(e[2]),
+                (1.0 + scale) * truth.u_mps + bu + s * float(e[0]),
+                (1.0 + scale) * truth.v_mps + bv + s * float(e[1]),
+                (1.0 + scale) * truth.w_mps + bw + s * float(e[2]),
             )
         )
     if mask[3]:

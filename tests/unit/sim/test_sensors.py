@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from hil_sim.model.actuators import ActuatorCommand
 from hil_sim.model.dynamics import BodyState
-from hil_sim.model.sensors import AhrsMeasurement, DepthMeasurement, DvlMeasurement, PositionFix
+from hil_sim.model.sensors import AhrsMeasurement, DepthMeasurement, DvlMeasurement, PositionFix, dvl_bias
 from hil_sim.model.sim import initial_state, make_setup, step
 
 
@@ -110,3 +112,44 @@ def test_a_measurement_with_any_non_finite_field_gives_no_frame() -> None:
         for f in dataclasses.fields(good):
             for bad in (math.nan, math.inf, -math.inf):
                 assert sensor_frames(dataclasses.replace(good, **{f.name: bad})) == [], (good, f.name)
+
+
+def _dvl_errors(params, profile: str, seed: int, sensors=None):
+    """The DVL's errors against the truth it sampled: (u, v) per sample."""
+    setup = make_setup(params, profile)
+    if sensors is not None:
+        setup = dataclasses.replace(setup, sensors=sensors)
+    state = initial_state(setup, BodyState(z_m=5.0, u_mps=1.5))
+    rng = np.random.default_rng(seed)
+    errors, others = [], []
+    for _ in range(round(30.0 / setup.control_period_s)):
+        res = step(state, ActuatorCommand(propeller_rps=25.0), setup, rng)
+        state = res.state
+        for m in res.measurements:
+            if isinstance(m, DvlMeasurement):
+                # the step's end truth (the DVL samples at the step's last sub-step here: 10 Hz on 20 Hz)
+                errors.append((m.u_mps - state.body.u_mps, m.v_mps - state.body.v_mps))
+            else:
+                others.append(m)
+    return np.array(errors), others
+
+
+def test_the_dvl_has_a_seeded_bias_a_real_one_has(params) -> None:
+    """A bottom-track DVL's scale-factor error (0.2-0.5 % of speed) and offset, drawn once per run from the
+    seed: its along-track error's mean is that bias (before: 0, the bench's DVL had none), the same for a
+    seed, another for another seed, and the other sensors' noise is drawn exactly as without it."""
+    profile = params.sensor_profiles["sea"]
+    assert profile.dvl_scale_bias_std == pytest.approx(0.003)
+    seeds = range(20)
+    means = []
+    for seed in seeds:
+        errors, _ = _dvl_errors(params, "sea", seed)
+        scale, bu, _, _ = dvl_bias(profile, np.random.default_rng(seed))
+        assert np.mean(errors[:, 0]) == pytest.approx(scale * 1.5 + bu, abs=0.004)
+        means.append(np.mean(errors[:, 0]))
+    assert np.std(means) > 0.002  # a bias per seed, not one for all: 0.003 x 1.5 m/s
+    assert dvl_bias(profile, np.random.default_rng(3)) == dvl_bias(profile, np.random.default_rng([3, 1]))
+    unbiased = dataclasses.replace(profile, dvl_scale_bias_std=0.0, dvl_offset_bias_std_mps=0.0)
+    _, with_bias = _dvl_errors(params, "sea", 5)
+    _, without = _dvl_errors(params, "sea", 5, sensors=unbiased)
+    assert with_bias == without
