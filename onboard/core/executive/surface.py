@@ -53,7 +53,7 @@ BRAKE_MAX_S = 40.0
 DEPTH_GAIN_RAD_PER_M = 0.3
 NOSE_UP_MAX_RAD = math.radians(10.0)
 PITCH_GAIN = 1.0
-#: Faster than this over ground ahead (m/s: a HOLD at cruise, not the end after the run-in's 0.25-0.35 m/s) the
+#: Faster than this over ground ahead (m/s: a HOLD at cruise, not the end after the run-in's 0.25-0.35) the
 #: stop also puts the rudder hard over, the way it was already turning: the reverse propeller alone
 #: decelerates this hull ~0.07 m/s^2 (1.2 m/s: 14.7 m to stop), a hull turning hard sheds its speed in
 #: drag and its way ahead in the turn (4.3 m from 1.2 m/s at 5 m deep, never deeper;
