@@ -4,8 +4,10 @@ plant (``onboard.app.standalone``), simulated time 10 times faster than the wall
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -15,6 +17,20 @@ from onboard.app.standalone import build
 from onboard.app.store import StateStore
 
 TIME_SCALE = 10.0
+
+
+WAIT_S = 30.0  # generous: the machine may be loaded (the vehicle's own time is simulated)
+
+
+def wait_message(client: MavClient, what: str, pred: Callable[[Any], bool], timeout_s: float = WAIT_S) -> Any:
+    """The first message ``client`` receives for which ``pred`` holds; an AssertionError naming ``what``
+    after ``timeout_s`` (s, the monotonic clock)."""
+    t_end = time.monotonic() + timeout_s
+    while time.monotonic() < t_end:
+        msg = client.recv(0.1)
+        if msg is not None and pred(msg):
+            return msg
+    raise AssertionError(f"no {what} within {timeout_s} s")
 
 
 class Vehicle:

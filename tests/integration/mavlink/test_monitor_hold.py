@@ -8,28 +8,16 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.mavclient import state_from_heartbeat
 from groundstation.mission_files import goal_item
 from onboard.protocol import messages as msgs
-from tests.integration.mavlink.conftest import Vehicle
-
-WAIT_S = 30.0  # generous: the machine may be loaded (the vehicle's own time is simulated)
-
-
-def _wait(client: MavClient, what: str, pred: Callable[[Any], bool], timeout_s: float = WAIT_S) -> Any:
-    t_end = time.monotonic() + timeout_s
-    while time.monotonic() < t_end:
-        msg = client.recv(0.1)
-        if msg is not None and pred(msg):
-            return msg
-    raise AssertionError(f"no {what} within {timeout_s} s")
+from tests.integration.mavlink.conftest import Vehicle, wait_message
 
 
 def _swept_off_and_stuck(vehicle: Vehicle, sideways_mps: float, for_s: float) -> None:
@@ -70,7 +58,7 @@ def test_off_the_path_for_mis_xtrack_s_set_over_mavlink_holds_with_the_figure(tm
             assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == mavlink.MAV_RESULT_ACCEPTED
             assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
             running = lambda m: m.get_type() == "HEARTBEAT" and state_from_heartbeat(m) == "RUNNING"  # noqa: E731
-            _wait(c, "RUNNING", running)
+            wait_message(c, "RUNNING", running)
             # WHEN it is swept 5 m off its path and held there
             t0 = time.monotonic()
             _swept_off_and_stuck(vehicle, 1.0, 5.0)
@@ -79,8 +67,10 @@ def test_off_the_path_for_mis_xtrack_s_set_over_mavlink_holds_with_the_figure(tm
             texts = lambda: [t.text for t in c.texts_since(t0)]  # noqa: E731
             held = lambda m: m.get_type() == "HEARTBEAT" and state_from_heartbeat(m) == "HOLD"  # noqa: E731
             try:
-                _wait(c, "HOLD", held)
-                _wait(c, "the monitor's text", lambda _m: any("off the path for 3 s" in t for t in texts()))
+                wait_message(c, "HOLD", held)
+                wait_message(
+                    c, "the monitor's text", lambda _m: any("off the path for 3 s" in t for t in texts())
+                )
             except AssertionError as e:
                 raise AssertionError(f"{e}; the vehicle said: {texts()}") from e
             text = next(t for t in texts() if "off the path for 3 s" in t)

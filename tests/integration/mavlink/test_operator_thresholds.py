@@ -10,28 +10,16 @@ from __future__ import annotations
 
 import re
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from groundstation.mavclient import MavClient, state_from_heartbeat
+from groundstation.mavclient import state_from_heartbeat
 from groundstation.mission_files import goal_item
 from onboard.protocol import messages as m
-from tests.integration.mavlink.conftest import Vehicle
-
-WAIT_S = 30.0  # generous: the machine may be loaded (the vehicle's own time is simulated)
-
-
-def _wait(client: MavClient, what: str, pred: Callable[[Any], bool], timeout_s: float = WAIT_S) -> Any:
-    t_end = time.monotonic() + timeout_s
-    while time.monotonic() < t_end:
-        msg = client.recv(0.1)
-        if msg is not None and pred(msg):
-            return msg
-    raise AssertionError(f"no {what} within {timeout_s} s")
+from tests.integration.mavlink.conftest import Vehicle, wait_message
 
 
 def _stop_attitude_frames(vehicle: Vehicle) -> None:
@@ -63,7 +51,7 @@ def test_fs_nav_tmo_s_set_over_mavlink_decides_when_stopped_attitude_frames_abor
             assert c.upload([goal_item(300.0, 0.0, 1.0, None)]).ok
             assert c.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0) == mavlink.MAV_RESULT_ACCEPTED
             assert c.command(mavlink.MAV_CMD_MISSION_START) == mavlink.MAV_RESULT_ACCEPTED
-            _wait(
+            wait_message(
                 c,
                 "RUNNING",
                 lambda msg: msg.get_type() == "HEARTBEAT" and state_from_heartbeat(msg) == "RUNNING",
@@ -73,10 +61,10 @@ def test_fs_nav_tmo_s_set_over_mavlink_decides_when_stopped_attitude_frames_abor
             _stop_attitude_frames(vehicle)
             # THEN it aborts, and the reason it gives the operator says how old the attitude was: just over
             # FS_NAV_TMO_S (one 50 ms tick), so with 5 s it was still running at 2 s
-            _wait(
+            wait_message(
                 c, "ABORT", lambda msg: msg.get_type() == "HEARTBEAT" and state_from_heartbeat(msg) == "ABORT"
             )
-            _wait(
+            wait_message(
                 c,
                 "the failsafe's text",
                 lambda _msg: any("navigation stale" in t.text for t in c.texts_since(t0)),
@@ -94,7 +82,7 @@ def test_fs_nav_tmo_s_set_over_mavlink_decides_when_stopped_attitude_frames_abor
 def test_sys_status_load_is_the_loops_busy_share_of_its_period(vehicle: Vehicle) -> None:
     # GIVEN a running vehicle  WHEN a station reads SYS_STATUS
     with vehicle.client() as c:
-        sys_status = _wait(
+        sys_status = wait_message(
             c, "SYS_STATUS with a load", lambda msg: msg.get_type() == "SYS_STATUS" and msg.load > 0
         )
         # THEN load is the loop's measured busy time per period, per mille (MAVLink's unit): above 0, and
