@@ -11,17 +11,13 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
-from can.interfaces.virtual import VirtualBus
 
-from hil_sim.bench_program import BenchResult, HilConfig, run_bench
+from hil_sim.bench_program import BenchResult, HilConfig
 from hil_sim.model import faults as fm
 from onboard.protocol import messages as m
 from tests.integration import test_bench_program as tb
@@ -50,7 +46,7 @@ def _fly(tmp_path: Path, name: str, faults: tuple[fm.Fault, ...] = (), profile: 
         tb._channel(f"fault-{name}"), truth_log=str(log_path), duration_s=SIM_S, sensor_profile=profile
     )
     frames: list[tuple[float, m.BusMessage]] = []
-    with _bench(cfg, faults) as (bench, onboard):
+    with tb.bench_and_onboard(cfg, faults) as (bench, onboard):
         tick = tb.start(onboard)
         frames += [(tick.sync.sim_time_s, f) for f in tick.before]
         while True:
@@ -64,31 +60,6 @@ def _fly(tmp_path: Path, name: str, faults: tuple[fm.Fault, ...] = (), profile: 
     with log_path.open(newline="") as f:
         truth = [{k: float(v) for k, v in r.items() if k != "onboard_state"} for r in csv.DictReader(f)]
     return Flight(frames, truth, result)
-
-
-@contextmanager
-def _bench(cfg: HilConfig, faults: tuple[fm.Fault, ...]) -> Iterator[tuple[tb.BenchThread, tb.FakeOnboard]]:
-    """test_bench_program.bench_and_onboard, with ``faults`` given to run_bench."""
-    onboard = tb.FakeOnboard(cfg.bus.channel)  # listening before the bench's first frame
-    bench_bus = VirtualBus(channel=cfg.bus.channel, receive_own_messages=False)
-    stop = threading.Event()
-    bt = tb.BenchThread(stop, threading.Thread(name="bench", daemon=True, target=lambda: None))
-
-    def target() -> None:
-        try:
-            bt.outcome["result"] = run_bench(cfg, stop, bus_override=bench_bus, faults=faults)
-        except BaseException as exc:  # handed to the test thread by BenchThread.join
-            bt.outcome["error"] = exc
-
-    bt.thread = threading.Thread(name="bench", daemon=True, target=target)
-    bt.thread.start()
-    try:
-        yield bt, onboard
-    finally:
-        stop.set()
-        bt.thread.join(tb.WAIT_S)
-        onboard.close()
-        assert not bt.thread.is_alive(), "bench thread did not stop"
 
 
 def _window(t: float) -> bool:

@@ -31,6 +31,7 @@ from hil_sim.bench_program import (
     run_bench,
     timeout_periods,
 )
+from hil_sim.model.faults import Fault
 from hil_sim.model.params import load_params
 from onboard.protocol import messages as m
 from onboard.protocol.bus import BusConfig
@@ -147,8 +148,11 @@ class BenchThread:
 
 
 @contextmanager
-def bench_and_onboard(cfg: HilConfig) -> Iterator[tuple[BenchThread, FakeOnboard]]:
-    """The bench in a thread on ``cfg.bus.channel`` and the test's onboard on the same channel."""
+def bench_and_onboard(
+    cfg: HilConfig, faults: tuple[Fault, ...] = ()
+) -> Iterator[tuple[BenchThread, FakeOnboard]]:
+    """The bench in a thread on ``cfg.bus.channel`` (with ``faults`` injected) and the test's onboard on the
+    same channel."""
     onboard = FakeOnboard(cfg.bus.channel)  # listening before the bench's first frame
     bench_bus = VirtualBus(channel=cfg.bus.channel, receive_own_messages=False)
     stop = threading.Event()
@@ -156,7 +160,7 @@ def bench_and_onboard(cfg: HilConfig) -> Iterator[tuple[BenchThread, FakeOnboard
 
     def target() -> None:
         try:
-            bt.outcome["result"] = run_bench(cfg, stop, bus_override=bench_bus)
+            bt.outcome["result"] = run_bench(cfg, stop, bus_override=bench_bus, faults=faults)
         except BaseException as exc:  # handed to the test thread by BenchThread.join
             bt.outcome["error"] = exc
 
